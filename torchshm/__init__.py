@@ -1,0 +1,55 @@
+"""torchshm: Bayesian system identification of structures from spatially dense strain data.
+
+The public names below (see ``API.md`` in the project docs) are imported lazily, so that
+``import torchshm`` stays fast and a command-line tool pays only for what it uses.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+__version__ = "0.1.0"
+
+#: public name -> sub-package that defines it
+_EXPORTS: dict[str, str] = {
+    "bridge705": "torchshm.physics",
+    "Bridge705": "torchshm.physics",
+    "synthetic_campaign": "torchshm.data",
+    "Measurements": "torchshm.data",
+    "load_measurements": "torchshm.data",
+    "KERNELS": "torchshm.kernels",
+    "log_likelihood": "torchshm.likelihood",
+    "Problem": "torchshm.likelihood",
+    "Uniform": "torchshm.priors",
+    "Gamma": "torchshm.priors",
+    "Normal": "torchshm.priors",
+    "paper_priors": "torchshm.priors",
+    "fit_surrogate": "torchshm.surrogate",
+    "load_surrogate": "torchshm.surrogate",
+    "bridge705_surrogate": "torchshm.surrogate",
+    "ExternalModel": "torchshm.forward",
+    "EvaluationStore": "torchshm.storage",
+    "identify": "torchshm.inference",
+    "Posterior": "torchshm.inference",
+    "load_posterior": "torchshm.inference",
+    "posterior_predictive": "torchshm.predictive",
+    "bayes_factors": "torchshm.predictive",
+    "kl_divergence": "torchshm.predictive",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    try:
+        module = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'torchshm' has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

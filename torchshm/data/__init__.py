@@ -1,0 +1,17 @@
+"""Measurements and the shipped synthetic campaign of bridge 705."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from torchshm.data.measurements import Measurements, load_measurements
+
+__all__ = ["Measurements", "load_measurements", "synthetic_campaign"]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "synthetic_campaign":
+        from torchshm.data.campaign import synthetic_campaign
+
+        return synthetic_campaign
+    raise AttributeError(f"module 'torchshm.data' has no attribute {name!r}")

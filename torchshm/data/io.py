@@ -1,0 +1,151 @@
+"""Reading and writing :class:`~torchshm.data.measurements.Measurements` files.
+
+``.csv`` is the long format a user can write from any logger (``load,x,strain``, one reading per
+row, any row order, header required); ``.nc`` is netCDF-4 with the metadata kept as attributes.
+Both round-trip float64 values exactly.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from torchshm.data.measurements import POSITION_TOL, Measurements
+
+CSV_COLUMNS = ("load", "x", "strain")
+
+
+def save(m: Measurements, path: Path) -> Path:
+    """Write `m` to `path` (format by suffix)."""
+    suffix = path.suffix.lower()
+    if suffix == ".csv":
+        _save_csv(m, path)
+    elif suffix == ".nc":
+        _save_nc(m, path)
+    else:
+        raise ValueError(f"unknown measurement file type {suffix!r} of {path} (use .csv or .nc)")
+    return path
+
+
+def load(path: Path) -> Measurements:
+    """Read a measurement file (format by suffix)."""
+    if not path.is_file():
+        raise FileNotFoundError(f"measurement file not found: {path}")
+    suffix = path.suffix.lower()
+    if suffix == ".csv":
+        return _load_csv(path)
+    if suffix == ".nc":
+        return _load_nc(path)
+    raise ValueError(f"unknown measurement file type {suffix!r} of {path} (use .csv or .nc)")
+
+
+def _save_csv(m: Measurements, path: Path) -> None:
+    loads = np.repeat(m.loads, m.n)
+    x = np.tile(m.x, m.loads.size)
+    table = np.column_stack([loads, x, m.y.reshape(-1)])
+    header = "\n".join(
+        [
+            "torchshm measurements, long format: load [m], x [m], strain [µε]",
+            f"sigma_e={m.sigma_e!r}",
+            f"attrs={json.dumps(m.attrs, sort_keys=True)}",
+        ]
+    )
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("".join(f"# {line}\n" for line in header.splitlines()))
+        f.write(",".join(CSV_COLUMNS) + "\n")
+        np.savetxt(f, table, delimiter=",", fmt="%.17g")
+
+
+def _read_csv_metadata(lines: list[str], path: Path) -> tuple[float, dict, int]:
+    sigma_e, attrs, start = 0.1, {}, 0
+    for start, line in enumerate(lines):
+        if not line.startswith("#"):
+            break
+        key, _, value = line[1:].strip().partition("=")
+        try:
+            if key == "sigma_e":
+                sigma_e = float(value)
+            elif key == "attrs":
+                attrs = json.loads(value)
+        except ValueError:
+            raise ValueError(f"{path}: malformed metadata line {line.strip()!r}") from None
+    return sigma_e, attrs, start
+
+
+def _load_csv(path: Path) -> Measurements:
+    lines = path.read_text(encoding="utf-8").splitlines()
+    sigma_e, attrs, start = _read_csv_metadata(lines, path)
+    if start >= len(lines):
+        raise ValueError(f"{path}: no header line 'load,x,strain'")
+    header = [h.strip().lower() for h in lines[start].split(",")]
+    if sorted(header) != sorted(CSV_COLUMNS):
+        raise ValueError(f"{path}: header must name the columns load, x, strain; got {lines[start]!r}")
+    rows = [line for line in lines[start + 1 :] if line.strip()]
+    try:
+        table = np.array([[float(v) for v in row.split(",")] for row in rows], dtype=np.float64)
+    except ValueError as err:
+        raise ValueError(f"{path}: malformed row ({err})") from None
+    if table.ndim != 2 or table.shape[0] == 0 or table.shape[1] != 3:
+        raise ValueError(f"{path}: expected rows of 3 numbers (load, x, strain)")
+    cols = {name: table[:, header.index(name)] for name in CSV_COLUMNS}
+    return _from_long(cols["load"], cols["x"], cols["strain"], sigma_e, attrs, path)
+
+
+def _from_long(
+    load: np.ndarray, x: np.ndarray, strain: np.ndarray, sigma_e: float, attrs: dict, path: Path
+) -> Measurements:
+    """Grid the long table: loads in order of first appearance, positions sorted."""
+    if not (np.all(np.isfinite(load)) and np.all(np.isfinite(x))):
+        raise ValueError(f"{path}: a load or x value is NaN or inf")
+    unique_loads, first, li = np.unique(load, return_index=True, return_inverse=True)
+    appearance = np.argsort(first)  # position in first-appearance order of each sorted load
+    rank = np.empty_like(appearance)
+    rank[appearance] = np.arange(appearance.size)
+    li = rank[li]
+    xs, xi = np.unique(x, return_inverse=True)
+    counts = np.bincount(li * xs.size + xi, minlength=unique_loads.size * xs.size)
+    if counts.max() > 1:
+        i = np.flatnonzero(li * xs.size + xi == np.argmax(counts))[0]
+        raise ValueError(f"{path}: load {load[i]:g} at x = {x[i]:g} m appears more than once")
+    if counts.min() == 0:
+        i, j = divmod(int(np.argmin(counts)), xs.size)
+        raise ValueError(f"{path}: no strain for load {unique_loads[appearance][i]:g} at x = {xs[j]:g} m")
+    y = np.empty((unique_loads.size, xs.size))
+    y[li, xi] = strain
+    return Measurements(xs, y, unique_loads[appearance], sigma_e, attrs)
+
+
+def _save_nc(m: Measurements, path: Path) -> None:
+    import xarray as xr
+
+    ds = xr.Dataset(
+        {"strain": (("load", "x"), m.y, {"units": "microstrain"})},
+        coords={"load": ("load", m.loads, {"units": "m"}), "x": ("x", m.x, {"units": "m"})},
+        attrs={"sigma_e": m.sigma_e, "attrs": json.dumps(m.attrs, sort_keys=True),
+               "format": "torchshm measurements"},
+    )
+    ds.to_netcdf(path, engine="h5netcdf")
+
+
+def _load_nc(path: Path) -> Measurements:
+    import xarray as xr
+
+    try:
+        with xr.open_dataset(path, engine="h5netcdf") as ds:
+            ds = ds.load()
+    except Exception as err:  # noqa: BLE001 - any reader failure means a malformed file
+        raise ValueError(f"{path}: not a readable netCDF file ({type(err).__name__}: {err})") from None
+    if "strain" not in ds or ds["strain"].dims != ("load", "x"):
+        raise ValueError(f"{path}: needs a variable 'strain' with dims (load, x)")
+    try:
+        attrs = json.loads(ds.attrs.get("attrs", "{}"))
+    except ValueError:
+        raise ValueError(f"{path}: malformed 'attrs' attribute") from None
+    return Measurements(
+        ds["x"].values, ds["strain"].values, ds["load"].values, float(ds.attrs.get("sigma_e", 0.1)), attrs
+    )
+
+
+__all__ = ["save", "load", "POSITION_TOL"]

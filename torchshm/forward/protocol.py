@@ -1,0 +1,56 @@
+"""What a forward model is.
+
+A forward model maps physical parameters to strains at the sensor points for every load case it
+knows, all at once, so that load cases held out of inference need no new model runs later.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from typing import Protocol, runtime_checkable
+
+import torch
+from torch import Tensor
+
+
+@runtime_checkable
+class ForwardModel(Protocol):
+    """Structural protocol of a forward model.
+
+    Attributes:
+        x: `n` sensor positions along the fibre [m], float64.
+        loads: `L` load cases, identified by the truck's front-axle position [m], float64.
+    """
+
+    x: Tensor
+    loads: Tensor
+
+    def __call__(self, theta_p: Tensor) -> Tensor:
+        """Strains [µε] `... x L x n` for physical parameters `theta_p` (`... x P`)."""
+        ...
+
+
+def as_tensor(values: object) -> Tensor:
+    """Float64 CPU tensor view of an array-like (tensors keep their autograd graph)."""
+    if isinstance(values, Tensor):
+        return values.to(torch.float64)
+    return torch.as_tensor(values, dtype=torch.float64)
+
+
+def model_identity(model: object) -> str:
+    """Stable key of a forward model's configuration, used by the evaluation store.
+
+    Returns ``model.identity`` when the model defines it; otherwise a hash of the model's class
+    name, sensor positions and load cases. Two models with the same identity must return the same
+    strains for the same parameters.
+    """
+    identity = getattr(model, "identity", None)
+    if identity is not None:
+        return str(identity)
+    digest = hashlib.sha256(type(model).__qualname__.encode())
+    for name in ("x", "loads"):
+        values = getattr(model, name, None)
+        if values is None:
+            raise ValueError(f"forward model {type(model).__name__} has no attribute {name!r}")
+        digest.update(as_tensor(values).detach().cpu().numpy().tobytes())
+    return f"{type(model).__qualname__}-{digest.hexdigest()[:16]}"
