@@ -54,3 +54,24 @@ def model_identity(model: object) -> str:
             raise ValueError(f"forward model {type(model).__name__} has no attribute {name!r}")
         digest.update(as_tensor(values).detach().cpu().numpy().tobytes())
     return f"{type(model).__qualname__}-{digest.hexdigest()[:16]}"
+
+
+def output_shape(model: object) -> tuple[int, int]:
+    """Shape `(L_model, n_model)` of the strains a forward model returns for one θp.
+
+    Raises:
+        ValueError: if the model lacks ``x`` or ``loads`` or they are not one-dimensional.
+    """
+    sizes = []
+    for name in ("loads", "x"):
+        values = getattr(model, name, None)
+        if values is None:
+            raise ValueError(f"forward model {type(model).__name__} has no attribute {name!r}")
+        array = as_tensor(values)
+        if array.ndim != 1:
+            raise ValueError(
+                f"forward model {type(model).__name__}: {name!r} must be one-dimensional, "
+                f"got shape {tuple(array.shape)}"
+            )
+        sizes.append(int(array.shape[0]))
+    return sizes[0], sizes[1]

@@ -1,1 +1,25 @@
-"""(package under construction)"""
+"""Distance kernels of the model discrepancy Gaussian process (paper, Table 6)."""
+
+from __future__ import annotations
+
+from torchshm.kernels.base import MIN_LENGTH, Kernel
+from torchshm.kernels.registry import KERNELS, get_kernel
+from torchshm.kernels.stationary import (
+    Exponential,
+    Independent,
+    Matern32,
+    Matern52,
+    SquaredExponential,
+)
+
+__all__ = [
+    "KERNELS",
+    "MIN_LENGTH",
+    "Exponential",
+    "Independent",
+    "Kernel",
+    "Matern32",
+    "Matern52",
+    "SquaredExponential",
+    "get_kernel",
+]

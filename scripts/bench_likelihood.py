@@ -1,0 +1,116 @@
+"""Benchmark of the likelihood of Eq. (21) at the sizes of sub-cases C1 and B.
+
+Compares, for one parameter vector,
+
+(a) what a user would write first: one dense `L n x L n` covariance and
+    ``scipy.stats.multivariate_normal.logpdf``;
+(b) a dense torch Cholesky factorisation of the same `L n x L n` matrix;
+(c) :func:`torchshm.log_likelihood` (block-diagonal: `L` Cholesky factorisations of `n x n`);
+
+and (d) :func:`torchshm.log_likelihood` for a batch of 40 parameter vectors (time per vector).
+Kernel ``matern32``, sigma_m = 0.05, sigma_e = 0.1 µε, positions 35.0..70.0 m every 0.1 m.
+Prints a markdown table of median wall times. The thread count of both numpy's BLAS and torch
+follows the environment (e.g. ``OMP_NUM_THREADS=1``).
+
+Usage::
+
+    python scripts/bench_likelihood.py [--repeats 20] [--slow-repeats 3] [--seed 0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import statistics
+import time
+from collections.abc import Callable
+
+import numpy as np
+import torch
+from scipy import linalg, stats
+
+import torchshm
+
+SIGMA_M, SIGMA_E, SIGMA_A, LENGTH, BATCH = 0.05, 0.1, 0.9, 2.0, 40
+
+
+def naive_scipy(y: np.ndarray, eta: np.ndarray, x: np.ndarray) -> float:
+    """(a) Full block-diagonal covariance in numpy, density by scipy."""
+    r = np.sqrt(3.0) * np.abs(x[:, None] - x[None, :]) / LENGTH
+    k = SIGMA_A**2 * (1.0 + r) * np.exp(-r)
+    blocks = [np.diag(SIGMA_M**2 * e**2 + SIGMA_E**2) + k for e in eta]
+    cov = linalg.block_diag(*blocks)
+    return float(stats.multivariate_normal.logpdf(y.ravel(), eta.ravel(), cov))
+
+
+def dense_torch(y: torch.Tensor, eta: torch.Tensor, x: torch.Tensor) -> float:
+    """(b) Full block-diagonal covariance in torch, one dense Cholesky factorisation."""
+    r = 3.0**0.5 * (x[:, None] - x[None, :]).abs() / LENGTH
+    k = SIGMA_A**2 * (1.0 + r) * torch.exp(-r)
+    cov = torch.block_diag(*[torch.diag(SIGMA_M**2 * e**2 + SIGMA_E**2) + k for e in eta])
+    chol = torch.linalg.cholesky(cov)
+    z = torch.linalg.solve_triangular(chol, (y - eta).reshape(-1, 1), upper=False)
+    log_det = 2.0 * chol.diagonal().log().sum()
+    return float(-0.5 * (z.square().sum() + log_det + cov.shape[0] * np.log(2.0 * np.pi)))
+
+
+def median_seconds(fn: Callable[[], object], repeats: int) -> tuple[float, object]:
+    """Median wall time over ``repeats`` calls after one warm-up call, and the last result."""
+    result = fn()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        result = fn()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times), result
+
+
+def bench_size(label: str, n_loads: int, args: argparse.Namespace) -> list[tuple[str, str, float, float, float]]:
+    """Rows ``(size, method, seconds per call, seconds per vector, value)`` for one data size."""
+    rng = np.random.default_rng(args.seed)
+    x = np.round(35.0 + 0.1 * np.arange(351), 10)
+    eta = 50.0 * np.sin(x[None, :] / 3.0 + rng.uniform(0, 6, (n_loads, 1)))
+    y = eta + rng.normal(0.0, 1.0, eta.shape)
+    yt, etat, xt = (torch.as_tensor(a) for a in (y, eta, x))
+    size = f"{label} ({n_loads} x 351 = {n_loads * 351} points)"
+
+    def ours(e: torch.Tensor, s: object, ell: object) -> torch.Tensor:
+        return torchshm.log_likelihood(yt, e, xt, "matern32", s, ell, sigma_m=SIGMA_M, sigma_e=SIGMA_E)
+
+    rows = []
+    t, v = median_seconds(lambda: naive_scipy(y, eta, x), args.slow_repeats)
+    rows.append((size, "(a) scipy `multivariate_normal.logpdf`, dense", t, t, v))
+    t, v = median_seconds(lambda: dense_torch(yt, etat, xt), args.slow_repeats)
+    rows.append((size, "(b) torch dense Cholesky", t, t, v))
+    t, v = median_seconds(lambda: float(ours(etat, SIGMA_A, LENGTH)), args.repeats)
+    rows.append((size, "(c) `torchshm.log_likelihood`", t, t, v))
+    if n_loads > 1:
+        batch = etat.expand(BATCH, -1, -1)
+        s, ell = torch.full((BATCH,), SIGMA_A), torch.full((BATCH,), LENGTH)
+        t, v = median_seconds(lambda: ours(batch, s, ell), max(3, args.repeats // 4))
+        rows.append((size, f"(d) `torchshm.log_likelihood`, batch of {BATCH}", t, t / BATCH, float(v[0])))
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--repeats", type=int, default=20, help="timed calls of the fast methods")
+    parser.add_argument("--slow-repeats", type=int, default=3, help="timed calls of (a) and (b)")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+    rows = bench_size("C1", 11, args) + bench_size("B", 1, args)
+    print(f"torch {torch.__version__} ({torch.get_num_threads()} threads), numpy {np.__version__}, "
+          f"{platform.processor() or platform.machine()}; median of {args.repeats} calls "
+          f"({args.slow_repeats} for (a) and (b)) after one warm-up.\n")
+    print("| size | method | median time [ms] | per parameter vector [ms] | (a) ÷ this, per vector |")
+    print("| --- | --- | ---: | ---: | ---: |")
+    naive = {}
+    for size, method, t, per, _ in rows:
+        naive.setdefault(size, per)
+        print(f"| {size} | {method} | {1e3 * t:.4g} | {1e3 * per:.4g} | {naive[size] / per:.4g}x |")
+    spread = max(abs(v - rows[0][4]) / abs(rows[0][4]) for *_, v in rows if _[0] == rows[0][0])
+    print(f"\nLargest relative difference between the methods' values (C1): {spread:.1e}")
+
+
+if __name__ == "__main__":
+    main()

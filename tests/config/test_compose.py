@@ -1,0 +1,106 @@
+"""Every option of every config group composes, and lands in the typed settings."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+import torchshm
+from torchshm.config import (
+    CONF_DIR,
+    EmceeConfig,
+    KernelName,
+    MethodName,
+    ModelName,
+    VBMCConfig,
+    method_options,
+    normalize_overrides,
+    to_settings,
+)
+
+
+def options(group: str) -> list[str]:
+    return sorted(p.stem for p in (CONF_DIR / group).glob("*.yaml"))
+
+
+def test_defaults_are_the_paper_sub_case_a2(compose_cfg) -> None:
+    s = to_settings(compose_cfg())
+    assert s.method.name is MethodName.vbmc and isinstance(s.method, VBMCConfig)
+    assert s.kernel.name is KernelName.matern32
+    assert s.model.name is ModelName.surrogate
+    assert s.data.path is None and s.data.loads == [39.8] and s.data.resolution == 0.1
+    assert s.predict.loads == [47.5, 55.1, 62.8, 70.4]
+    assert s.likelihood.sigma_m == 0.05 and s.likelihood.sigma_e is None
+    assert s.seed == 0 and s.store is None
+    assert list(s.priors) == ["E_c", "log10_K_r", "sigma_a", "length"]
+
+
+def test_kernel_group_has_every_kernel_of_table_6() -> None:
+    assert options("kernel") == sorted(torchshm.KERNELS)
+    assert sorted(k.value for k in KernelName) == sorted(torchshm.KERNELS)
+
+
+@pytest.mark.parametrize("kernel", sorted(k.value for k in KernelName))
+def test_each_kernel_option(compose_cfg, kernel: str) -> None:
+    assert to_settings(compose_cfg(f"kernel={kernel}")).kernel.name.value == kernel
+
+
+@pytest.mark.parametrize("model", ["fe", "surrogate"])
+def test_each_model_option(compose_cfg, model: str) -> None:
+    assert options("model") == ["fe", "surrogate"]
+    assert to_settings(compose_cfg(f"model={model}")).model.name is ModelName(model)
+
+
+def test_method_vbmc_options(compose_cfg) -> None:
+    s = to_settings(compose_cfg("method=vbmc", "method.max_fun_evals=60"))
+    assert isinstance(s.method, VBMCConfig)
+    assert method_options(s.method) == {"max_fun_evals": 60, "n_samples": 100_000}
+
+
+def test_method_emcee_has_the_paper_settings(compose_cfg) -> None:
+    s = to_settings(compose_cfg("method=emcee"))
+    assert isinstance(s.method, EmceeConfig)
+    assert (s.method.n_walkers, s.method.n_steps) == (40, 2000)
+    assert method_options(s.method) == {"n_walkers": 40, "n_steps": 2000, "thin": 1,
+                                        "log_every": 100, "window": 1000}
+    s = to_settings(compose_cfg("method=emcee", "method.n_walkers=8", "method.burn=10"))
+    assert method_options(s.method)["n_walkers"] == 8 and method_options(s.method)["burn"] == 10
+
+
+def test_method_yaml_matches_schema_defaults(compose_cfg) -> None:
+    assert to_settings(compose_cfg("method=vbmc")).method == VBMCConfig()
+    assert to_settings(compose_cfg("method=emcee")).method == EmceeConfig()
+
+
+@pytest.mark.parametrize("option", ["0.1", "0.2", "0.5", "1", "2", "4"])
+def test_each_resolution_option(compose_cfg, option: str) -> None:
+    assert options("resolution") == sorted(["0.1", "0.2", "0.5", "1", "2", "4"])
+    s = to_settings(compose_cfg(*normalize_overrides([f"resolution={option}"])))
+    assert s.data.resolution == pytest.approx(float(option))
+
+
+def test_resolution_written_as_float_selects_the_file(compose_cfg) -> None:
+    s = to_settings(compose_cfg(*normalize_overrides(["resolution=1.0"])))
+    assert s.data.resolution == 1.0
+
+
+def test_data_and_predict_values(compose_cfg, tmp_path: Path) -> None:
+    s = to_settings(compose_cfg(
+        f"data.path={tmp_path / 'm.csv'}", "data.loads=[39.8,47.5]", "predict.loads=[]",
+        "seed=7", "store=runs/evals.sqlite", "likelihood.sigma_e=0.2", "data.resolution=null",
+    ))
+    assert s.data.path == str(tmp_path / "m.csv")
+    assert s.data.loads == [39.8, 47.5] and s.predict.loads == []
+    assert s.seed == 7 and s.store == "runs/evals.sqlite" and s.likelihood.sigma_e == 0.2
+    assert s.data.resolution is None
+
+
+def test_hydra_run_and_sweep_dirs_are_relative_and_named_by_overrides(compose_cfg) -> None:
+    cfg = compose_cfg("kernel=matern52", return_hydra_config=True)
+    assert cfg.hydra.job.chdir is False
+    assert cfg.hydra.run.dir.startswith("runs/")
+    assert cfg.hydra.sweep.dir.startswith("runs/multirun/")
+    assert cfg.hydra.run.dir.endswith("_kernel=matern52")
+    assert cfg.hydra.sweep.subdir == "kernel=matern52"
+    assert compose_cfg(return_hydra_config=True).hydra.sweep.subdir == "default"

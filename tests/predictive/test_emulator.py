@@ -1,0 +1,54 @@
+"""The GP emulator of stored model outputs (the surrogate's shared-kernel GP on given arrays)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from torchshm.predictive.emulator import BRIDGE, PLAIN, clean_design, fit_emulator, transform_options
+
+X = np.linspace(0.0, 10.0, 30)
+LOADS = np.array([1.0, 2.0])
+
+
+def response(theta: np.ndarray) -> np.ndarray:
+    """A smooth nonlinear `M x 2 x 30` response, like strains against (E, log10 K)."""
+    e, k = theta[:, :1], theta[:, 1:]
+    s = 1.0 / (1.0 + np.exp(-(k - 6.0)))
+    return np.stack([100.0 / e * np.sin(X / 3 + s), 100.0 / e * np.cos(X / 4 - s)], axis=1)
+
+
+def test_accurate_inside_the_design() -> None:
+    rng = np.random.default_rng(0)
+    design = np.column_stack([rng.uniform(20, 50, 60), rng.uniform(4, 12, 60)])
+    emulator = fit_emulator(design, response(design), X, LOADS, transform=BRIDGE)
+    test = np.column_stack([rng.uniform(25, 45, 200), rng.uniform(5, 11, 200)])
+    mean, var = emulator.predict(test)
+    assert mean.shape == (200, 2, 30) and var.shape == (200, 2, 30)
+    err = np.abs(mean.detach().numpy() - response(test)).max()
+    assert err < 0.05, err
+
+
+def test_sd_grows_away_from_data() -> None:
+    rng = np.random.default_rng(1)
+    design = np.column_stack([rng.uniform(30, 35, 20), rng.uniform(9, 10, 20)])
+    emulator = fit_emulator(design, response(design), X, LOADS)
+    var_in = emulator.variance(design[:5])
+    var_out = emulator.variance(np.array([[80.0, 2.0]]))
+    assert var_in.max() < 1e-2 * var_out.max()
+
+
+def test_drops_failed_and_repeated_rows() -> None:
+    rng = np.random.default_rng(2)
+    design = np.column_stack([rng.uniform(20, 50, 10), rng.uniform(4, 12, 10)])
+    outputs = response(design)
+    outputs[3] = np.nan
+    theta, out = clean_design(np.vstack([design, design[:2]]), np.concatenate([outputs, outputs[:2]]))
+    assert theta.shape[0] == 9 and out.shape == (9, 2, 30)
+    with pytest.raises(ValueError, match="at least 4 are needed"):
+        fit_emulator(design[:3], outputs[:3], X, LOADS)
+
+
+def test_transform_choice() -> None:
+    assert transform_options(object(), ["E_c", "log10_K_r"]) == BRIDGE
+    assert transform_options(object(), ["a", "b"]) == PLAIN

@@ -1,0 +1,68 @@
+"""``torchshm-identify``: the Hydra application (also ``python scripts/identify.py``).
+
+Hydra stays at this edge: it composes ``conf/config.yaml`` with the command-line overrides,
+:func:`torchshm.config.to_settings` turns the result into typed dataclasses, and
+:func:`torchshm.cli.job.run_job` calls the library. Each run writes into its own folder under
+``runs/`` (``hydra.run.dir``; sweeps under ``runs/multirun/``), relative to the directory the
+command runs from (``hydra.job.chdir`` is false).
+
+A bad input (missing or malformed data file, unknown load case, unknown config option, inverted
+bounds) ends with exit status 2 and one line on stderr, ``torchshm-identify: error: ...``;
+``HYDRA_FULL_ERROR=1`` shows the traceback instead.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+from pathlib import Path
+from typing import Sequence
+
+import hydra
+from hydra.core.hydra_config import HydraConfig
+from omegaconf import DictConfig
+
+from torchshm.cli.errors import bad_input_in_job, report_bad_input
+from torchshm.config import CONF_DIR, CONFIG_NAME, normalize_overrides, register_configs, to_settings
+
+PROG = "torchshm-identify"
+
+log = logging.getLogger(__name__)
+
+
+@hydra.main(config_path=str(CONF_DIR), config_name=CONFIG_NAME, version_base="1.3")
+def _app(cfg: DictConfig) -> float | None:
+    """Hydra's task function: typed settings in, one run folder out.
+
+    Returns:
+        The log evidence (ELBO) of the run, or None (emcee), for Hydra's sweepers.
+    """
+    from torchshm.cli.job import run_job
+
+    logging.captureWarnings(True)  # warnings go to the run's log, not to stderr
+    with bad_input_in_job():
+        settings = to_settings(cfg)
+        out_dir = Path(HydraConfig.get().runtime.output_dir)
+        result = run_job(settings, out_dir, base=Path(hydra.utils.get_original_cwd()))
+    post = result.posterior
+    log.info("%d model evaluations in %.1f s; outputs in %s",
+             post.n_model_evaluations, result.wall_time_s, out_dir)
+    return post.log_evidence
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    """Entry point of ``torchshm-identify``.
+
+    Args:
+        argv: command-line arguments (default ``sys.argv[1:]``): Hydra overrides and flags,
+            e.g. ``kernel=matern52 resolution=0.5`` or ``-m kernel=matern32,matern52``.
+    """
+    register_configs()
+    args = sys.argv[1:] if argv is None else list(argv)
+    sys.argv = [sys.argv[0] if sys.argv else PROG, *normalize_overrides(args)]
+    with report_bad_input(PROG):
+        _app()
+
+
+if __name__ == "__main__":
+    main()

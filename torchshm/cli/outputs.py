@@ -1,0 +1,136 @@
+"""Files a ``torchshm-identify`` run writes into its run folder.
+
+- ``posterior.nc``: the posterior (``torchshm.load_posterior`` reads it back);
+- ``summary.csv``: mean, sd and 95 % interval per parameter (also printed);
+- ``corner.png``: 1-D and 2-D marginals, the truth marked when the data carry it;
+- ``elbo.png`` (VBMC): the ELBO per iteration; ``trace.png``: mean and 95 % interval of each
+  parameter against evaluations, from ``post.history``;
+- ``predictive.csv`` / ``predictive.png``: scores and plot of the held-out load cases;
+- ``run.json``: wall time, evaluations, evidence, convergence and the settings;
+- ``tb/``: TensorBoard events, written during inference by :func:`torchshm.identify`.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import logging
+import math
+from enum import Enum
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from torchshm.cli import plots
+
+log = logging.getLogger(__name__)
+
+
+def truths_of(attrs: Mapping[str, Any], names: list[str]) -> dict[str, float]:
+    """True parameter values stored with synthetic data (``attrs["truth_<name>"]``)."""
+    out = {}
+    for name in names:
+        value = attrs.get(f"truth_{name}")
+        if isinstance(value, (int, float)) and math.isfinite(value):
+            out[name] = float(value)
+    return out
+
+
+def history_traces(history: Mapping[str, np.ndarray], names: list[str]) -> dict[str, tuple]:
+    """name -> (mean, q2.5, q97.5) per trace row, for the names the history holds."""
+    return {
+        n: (history[f"{n}/mean"], history[f"{n}/q2.5"], history[f"{n}/q97.5"])
+        for n in names
+        if f"{n}/mean" in history
+    }
+
+
+def write_posterior(post: Any, out_dir: Path, attrs: Mapping[str, Any]) -> dict[str, Path]:
+    """Posterior file, summary table (printed too) and figures of ``post`` in ``out_dir``."""
+    files = {"posterior": post.save(out_dir / "posterior.nc")}
+    summary = post.summary()
+    files["summary"] = out_dir / "summary.csv"
+    summary.to_csv(files["summary"])
+    print(post, flush=True)
+    truths = truths_of(attrs, list(post.names))
+    files["corner"] = plots.corner_plot({post.method: post.samples}, post.names,
+                                        out_dir / "corner.png", truths)
+    history = post.history or {}
+    if "elbo" in history and len(history["elbo"]):
+        files["elbo"] = plots.elbo_plot(history, out_dir / "elbo.png")
+    traces = history_traces(history, list(post.names))
+    if traces and "n_evaluations" in history:
+        files["trace"] = plots.trace_plot(
+            history["n_evaluations"], traces, out_dir / "trace.png",
+            "log-joint evaluations", f"{post.method}: mean and 95 % interval",
+        )
+    return files
+
+
+def write_predictive(
+    post: Any, held_out: Any, n: int, seed: int, out_dir: Path,
+) -> tuple[list[dict[str, float]], dict[str, Path]]:
+    """Posterior predictive of the held-out load cases: scores per load case and a plot.
+
+    A failure here does not fail the run (the posterior is already written): it is logged
+    as a warning and no predictive files are written.
+    """
+    import torchshm
+    from torchshm.predictive import predictive_metrics
+
+    try:
+        pred = torchshm.posterior_predictive(post, [float(v) for v in held_out.loads], n=n, seed=seed)
+    except ValueError as err:
+        log.warning("posterior predictive skipped: %s", err)
+        return [], {}
+    rows = []
+    for load in held_out.loads:
+        m = predictive_metrics(pred, held_out, [float(load)])
+        rows.append({"load": float(load), **m.as_dict()})
+    path = out_dir / "predictive.csv"
+    with open(path, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    for row in rows:
+        log.info("held-out load %g m: %.1f %% inside the 95 %% interval, R2 %.3f, MSE %.3g",
+                 row["load"], 100 * row["coverage"], row["r2"], row["mse"])
+    return rows, {"predictive": path, "predictive_plot": plots.predictive_plot(
+        pred, held_out, out_dir / "predictive.png")}
+
+
+def write_run_record(result: Any, settings: Any) -> Path:
+    """``run.json``: the numbers of the run and its settings."""
+    post = result.posterior
+    record = {
+        "method": post.method,
+        "names": list(post.names),
+        "wall_time_s": result.wall_time_s,
+        "n_model_evaluations": int(post.n_model_evaluations),
+        "log_evidence": post.log_evidence,
+        "log_evidence_sd": post.log_evidence_sd,
+        "converged": bool(post.converged),
+        "summary": post.summary().as_dict(),
+        "predictive": result.predictive,
+        "diagnostics": post.diagnostics,
+        "settings": dataclasses.asdict(settings),
+        "files": {k: str(v) for k, v in result.files.items()},
+    }
+    path = result.out_dir / "run.json"
+    path.write_text(json.dumps(record, indent=2, default=_jsonable) + "\n")
+    return path
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, Enum):
+        return value.value
+    if isinstance(value, (np.generic,)):
+        return value.item()
+    if isinstance(value, (np.ndarray,)):
+        return value.tolist()
+    return str(value)
+
+
+__all__ = ["history_traces", "truths_of", "write_posterior", "write_predictive", "write_run_record"]

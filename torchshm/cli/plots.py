@@ -1,0 +1,158 @@
+"""Figures of a run: corner plot, ELBO trace, convergence traces, held-out predictions.
+
+Every function draws on a fresh figure with the non-interactive Agg backend, saves it to
+``path`` and closes it, so the functions can run headless and in parallel jobs.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+
+#: axis labels of the parameters (units as in the paper)
+LABELS = {
+    "E_c": r"$E_c$ [GPa]",
+    "log10_K_r": r"$\log_{10} K_r$ [N·mm/rad]",
+    "sigma_a": r"$\sigma_a$ [µε]",
+    "length": r"$l$ [m]",
+}
+#: colours of overlaid posteriors (matplotlib's default cycle)
+COLOURS = ("C0", "C1", "C2", "C3")
+
+
+def _pyplot():  # type: ignore[no-untyped-def]
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def corner_plot(
+    samples: Mapping[str, np.ndarray], names: Sequence[str], path: Path,
+    truths: Mapping[str, float] | None = None, max_points: int = 20_000,
+) -> Path:
+    """1-D and 2-D marginals of one or more posteriors, overlaid (paper, Fig. 4).
+
+    Args:
+        samples: label -> `S x D` samples (columns in the order of ``names``).
+        names: the `D` parameter names.
+        path: the PNG file.
+        truths: name -> true value, marked with lines where known.
+        max_points: at most this many samples of each posterior are drawn (evenly thinned).
+    """
+    import corner
+
+    plt = _pyplot()
+    fig = None
+    handles = []
+    truth_row = [None if truths is None else truths.get(n) for n in names]
+    ranges = _common_ranges(list(samples.values()))
+    for i, (label, s) in enumerate(samples.items()):
+        s = np.asarray(s, dtype=np.float64)
+        s = s[:: max(1, s.shape[0] // max_points)]
+        colour = COLOURS[i % len(COLOURS)]
+        fig = corner.corner(
+            s, fig=fig, labels=[LABELS.get(n, n) for n in names], range=ranges, color=colour,
+            truths=truth_row if i == 0 and any(t is not None for t in truth_row) else None,
+            truth_color="k", plot_datapoints=False, plot_density=False, fill_contours=False,
+            levels=(0.393, 0.865), smooth=1.0, hist_kwargs={"density": True},
+        )
+        handles.append(plt.Line2D([], [], color=colour, label=label))
+    if truths and any(t is not None for t in truth_row):
+        handles.append(plt.Line2D([], [], color="k", label="truth"))
+    fig.legend(handles=handles, loc="upper right", frameon=False)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _common_ranges(sets: list[np.ndarray]) -> list[tuple[float, float]]:
+    """Per-column plotting range covering the 0.1 %-99.9 % quantiles of every set."""
+    lo = np.min([np.quantile(s, 0.001, axis=0) for s in sets], axis=0)
+    hi = np.max([np.quantile(s, 0.999, axis=0) for s in sets], axis=0)
+    pad = 0.05 * np.maximum(hi - lo, 1e-12)
+    return [(float(a - p), float(b + p)) for a, b, p in zip(lo, hi, pad)]
+
+
+def elbo_plot(history: Mapping[str, np.ndarray], path: Path) -> Path:
+    """ELBO (± 2 sd) per VBMC iteration against the number of evaluations."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6, 3.5), constrained_layout=True)
+    x = np.asarray(history["n_evaluations"])
+    elbo = np.asarray(history["elbo"])
+    sd = np.asarray(history.get("elbo_sd", np.zeros_like(elbo)))
+    ax.plot(x, elbo, "o-", ms=3, color="C0", label="ELBO")
+    ax.fill_between(x, elbo - 2 * sd, elbo + 2 * sd, color="C0", alpha=0.25, label="± 2 sd")
+    ax.set_xlabel("log-joint evaluations")
+    ax.set_ylabel("ELBO [nats]")
+    finite = elbo[np.isfinite(elbo)]
+    if finite.size > 3:  # early iterations can be far off: show the settled part
+        ax.set_ylim(np.quantile(finite, 0.2) - 5 * (np.ptp(finite[-3:]) + 1), finite.max() + 3)
+    ax.legend(frameon=False)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def trace_plot(
+    x: np.ndarray, traces: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray]],
+    path: Path, xlabel: str, title: str = "", marks: Mapping[str, float] | None = None,
+) -> Path:
+    """Mean and 95 % interval of each parameter against evaluations (paper, Figs. 5 and 6).
+
+    Args:
+        x: `T` abscissae (evaluations or samples).
+        traces: name -> (mean, lower, upper), each of length `T`.
+        path: the PNG file.
+        xlabel: label of the abscissa.
+        title: figure title.
+        marks: label -> abscissa of a vertical dashed line (e.g. convergence).
+    """
+    plt = _pyplot()
+    names = list(traces)
+    fig, axes = plt.subplots(len(names), 1, figsize=(6.5, 1.9 * len(names) + 0.6), sharex=True,
+                             constrained_layout=True)
+    for ax, name in zip(np.atleast_1d(axes), names):
+        mean, lower, upper = (np.asarray(a) for a in traces[name])
+        ax.plot(x, mean, color="C0", lw=1.2)
+        ax.fill_between(x, lower, upper, color="C0", alpha=0.3, lw=0)
+        ax.set_ylabel(LABELS.get(name, name))
+        for j, (label, at) in enumerate((marks or {}).items()):
+            ax.axvline(at, color=COLOURS[(j + 1) % len(COLOURS)], ls="--", lw=1, label=label)
+    np.atleast_1d(axes)[-1].set_xlabel(xlabel)
+    if marks:
+        np.atleast_1d(axes)[0].legend(frameon=False, fontsize="small")
+    if title:
+        fig.suptitle(title)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def predictive_plot(pred: object, measurements: object, path: Path) -> Path:
+    """Held-out measurements against the posterior predictive mean and interval (Figs. 9-10)."""
+    plt = _pyplot()
+    loads = [float(v) for v in pred.loads]  # type: ignore[attr-defined]
+    fig, axes = plt.subplots(len(loads), 1, figsize=(8, 2.2 * len(loads) + 0.4), sharex=True,
+                             squeeze=False, constrained_layout=True)
+    x = np.asarray(pred.x)  # type: ignore[attr-defined]
+    for ax, load in zip(axes[:, 0], loads):
+        i = pred.select(load)  # type: ignore[attr-defined]
+        y = measurements.select([load])  # type: ignore[attr-defined]
+        ax.plot(y.x, y.y[0], ".", ms=2, color="C1", label="measured")
+        ax.plot(x, np.asarray(pred.mean[i]), color="C0", lw=1, label="predictive mean")  # type: ignore[attr-defined]
+        ax.fill_between(x, np.asarray(pred.lower[i]), np.asarray(pred.upper[i]),  # type: ignore[attr-defined]
+                        color="C0", alpha=0.3, lw=0, label="95 % interval")
+        ax.set_ylabel(f"strain [µε]\nload {load:g} m")
+    axes[0, 0].legend(frameon=False, fontsize="small", ncol=3)
+    axes[-1, 0].set_xlabel("x [m]")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+__all__ = ["LABELS", "corner_plot", "elbo_plot", "predictive_plot", "trace_plot"]

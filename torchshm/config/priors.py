@@ -1,0 +1,88 @@
+"""Priors from their config entries (``conf/priors/*.yaml``) to ``torchshm`` prior objects."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import fields
+
+from torchshm.config.schema import Distribution, PriorConfig
+
+#: the fields each family needs and may take (``fixed`` needs ``value`` and ignores the rest)
+_REQUIRED: dict[Distribution, tuple[str, ...]] = {
+    Distribution.uniform: ("a", "b"),
+    Distribution.gamma: ("alpha", "beta"),
+    Distribution.normal: ("mean", "sd"),
+}
+_OPTIONAL: dict[Distribution, tuple[str, ...]] = {
+    Distribution.uniform: ("plausible",),
+    Distribution.gamma: ("bounds", "plausible"),
+    Distribution.normal: ("bounds", "plausible"),
+}
+
+
+def build_prior(name: str, entry: PriorConfig) -> object:
+    """The prior of one parameter (a ``torchshm`` prior, or a float for ``fixed``).
+
+    A ``fixed`` entry needs ``value`` and ignores its other fields, so that
+    ``priors.E_c={dist:fixed,value:35}`` fixes a parameter; the other families accept only
+    their own fields, so that a misplaced bound is reported rather than ignored.
+
+    Args:
+        name: the parameter name, used in error messages (``priors.<name>``).
+        entry: its config entry.
+
+    Raises:
+        ValueError: ``priors.<name>: ...`` for a missing or superfluous field, a bound that is
+            not a pair, inverted bounds or plausible bounds outside the hard ones.
+    """
+    import torchshm
+
+    dist = entry.dist
+    if dist is Distribution.fixed:  # the other fields may be left from the prior it replaces
+        if entry.value is None:
+            raise ValueError(f"priors.{name}: a fixed prior needs value")
+        return float(entry.value)
+    given = {f.name for f in fields(entry) if f.name != "dist" and getattr(entry, f.name) is not None}
+    missing = [k for k in _REQUIRED[dist] if k not in given]
+    if missing:
+        raise ValueError(f"priors.{name}: a {dist.value} prior needs {', '.join(missing)}")
+    extra = sorted(given - set(_REQUIRED[dist]) - set(_OPTIONAL[dist]))
+    if extra:
+        hint = " (a uniform prior's hard bounds are [a, b])" if "bounds" in extra else ""
+        raise ValueError(f"priors.{name}: a {dist.value} prior takes no {', '.join(extra)}{hint}")
+    bounds = _pair(name, "bounds", entry.bounds)
+    plausible = _pair(name, "plausible", entry.plausible)
+    try:
+        if dist is Distribution.uniform:
+            return torchshm.Uniform(entry.a, entry.b, plausible=plausible)
+        if dist is Distribution.gamma:
+            return torchshm.Gamma(entry.alpha, entry.beta, bounds=bounds, plausible=plausible)
+        return torchshm.Normal(entry.mean, entry.sd, bounds=bounds, plausible=plausible)
+    except ValueError as err:
+        raise ValueError(f"priors.{name}: {err}") from None
+
+
+def build_priors(entries: Mapping[str, PriorConfig]) -> dict[str, object]:
+    """Every prior of ``entries``, in their order (physical parameters first, by convention).
+
+    Raises:
+        ValueError: as :func:`build_prior`, or when ``entries`` is empty.
+    """
+    if not entries:
+        raise ValueError("priors: no parameter has a prior")
+    return {name: build_prior(name, entry) for name, entry in entries.items()}
+
+
+def _pair(name: str, what: str, values: list[float] | None) -> tuple[float, float] | None:
+    """``values`` as a ``(lower, upper)`` pair with lower < upper, or ``None``."""
+    if values is None:
+        return None
+    if len(values) != 2:
+        raise ValueError(f"priors.{name}.{what} must be [lower, upper], got {list(values)}")
+    lower, upper = float(values[0]), float(values[1])
+    if not lower < upper:
+        raise ValueError(f"priors.{name}.{what}: lower bound {lower:g} is not below upper bound {upper:g}")
+    return lower, upper
+
+
+__all__ = ["build_prior", "build_priors"]

@@ -1,0 +1,148 @@
+"""The shipped synthetic measurement campaign of bridge 705.
+
+The paper's fibre data are not public. In their place the library ships the noise-free,
+gauge-averaged strains of a *truth* structure that is richer than the model
+(:mod:`torchshm.physics.truth`), computed once by ``scripts/make_campaign.py``. Loading needs no
+finite element solve: :func:`synthetic_campaign` reads those strains and adds, with
+``numpy.random.default_rng(seed)``, a random offset per load case (the residual of the
+campaign's offset adjustment) and independent measurement noise. The same seed gives the same
+measurements in any process.
+
+File layout (``bridge705_campaign.nc``, netCDF-4 through xarray/h5netcdf):
+
+- coordinates ``load`` (`L`, front-axle positions [m]) and ``x`` (`n`, fibre positions [m]);
+- variable ``strain_truth`` (``load``, ``x``): noise-free gauge-averaged strains [µε];
+- attributes ``truth_E_c`` [GPa], ``truth_log10_K_r``, ``sigma_e`` [µε], ``offset_sd`` [µε],
+  ``model_identity`` (the model it was made for), ``truth_config`` (JSON) and ``description``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from torchshm.data.measurements import Measurements
+
+#: the shipped campaign file
+CAMPAIGN_PATH = Path(__file__).with_name("bridge705_campaign.nc")
+
+
+@dataclass(frozen=True)
+class CampaignTruth:
+    """Contents of a campaign file.
+
+    Attributes:
+        x: `n` fibre positions [m].
+        loads: `L` front-axle positions [m].
+        strain: `L x n` noise-free, gauge-averaged truth strains [µε].
+        attrs: file metadata (truth parameters, noise levels, provenance).
+    """
+
+    x: np.ndarray
+    loads: np.ndarray
+    strain: np.ndarray
+    attrs: dict[str, float | str]
+
+    @property
+    def sigma_e(self) -> float:
+        """Standard deviation of the measurement noise [µε]."""
+        return float(self.attrs["sigma_e"])
+
+    @property
+    def offset_sd(self) -> float:
+        """Standard deviation of the per-load-case offset residual [µε]."""
+        return float(self.attrs["offset_sd"])
+
+
+def write_campaign(truth: CampaignTruth, path: str | Path) -> Path:
+    """Write a campaign file (layout in the module docstring); returns the path."""
+    import xarray as xr
+
+    dataset = xr.Dataset(
+        {"strain_truth": (("load", "x"), np.asarray(truth.strain, dtype=np.float64))},
+        coords={"load": np.asarray(truth.loads, dtype=np.float64), "x": np.asarray(truth.x, dtype=np.float64)},
+        attrs=dict(truth.attrs),
+    )
+    dataset["strain_truth"].attrs["units"] = "microstrain"
+    dataset["x"].attrs["units"] = "m"
+    dataset["load"].attrs["units"] = "m"
+    path = Path(path)
+    dataset.to_netcdf(path, engine="h5netcdf")
+    return path
+
+
+@lru_cache(maxsize=4)
+def _read(path: Path) -> CampaignTruth:
+    import xarray as xr
+
+    if not path.exists():
+        raise FileNotFoundError(f"campaign file not found: {path} (run scripts/make_campaign.py)")
+    with xr.open_dataset(path, engine="h5netcdf") as dataset:
+        dataset = dataset.load()
+        attrs = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in dataset.attrs.items()}
+        return CampaignTruth(
+            x=dataset["x"].values.astype(np.float64),
+            loads=dataset["load"].values.astype(np.float64),
+            strain=dataset["strain_truth"].values.astype(np.float64),
+            attrs=attrs,
+        )
+
+
+def campaign_truth(path: str | Path | None = None) -> CampaignTruth:
+    """The noise-free contents of a campaign file (the shipped one by default); arrays are copies."""
+    truth = _read(Path(path) if path is not None else CAMPAIGN_PATH)
+    return CampaignTruth(truth.x.copy(), truth.loads.copy(), truth.strain.copy(), dict(truth.attrs))
+
+
+def synthetic_campaign(seed: int = 0, path: str | Path | None = None) -> Measurements:
+    """Synthetic fibre measurements of bridge 705: 12 load cases at 0.1 m pitch (35–70 m).
+
+    ``y = strain_truth + offset_l + e``, with one offset ``offset_l ~ N(0, offset_sd²)`` per
+    load case and independent ``e ~ N(0, sigma_e²)``, drawn in that order from
+    ``numpy.random.default_rng(seed)``.
+
+    Args:
+        seed: seed of the noise; the same seed gives identical measurements in every process.
+        path: a campaign file; defaults to the shipped ``bridge705_campaign.nc``.
+
+    Returns:
+        Measurements `L x n` [µε] with ``sigma_e`` from the file and the truth parameters in
+        ``attrs`` (``truth_E_c`` [GPa], ``truth_log10_K_r``).
+    """
+    truth = campaign_truth(path)
+    rng = np.random.default_rng(seed)
+    offsets = rng.normal(0.0, truth.offset_sd, size=(truth.loads.size, 1))
+    noise = rng.normal(0.0, truth.sigma_e, size=truth.strain.shape)
+    attrs: dict[str, float | int | str] = {
+        "source": "torchshm synthetic campaign of bridge 705",
+        "seed": int(seed),
+        "truth_E_c": float(truth.attrs["truth_E_c"]),
+        "truth_log10_K_r": float(truth.attrs["truth_log10_K_r"]),
+        "offset_sd": truth.offset_sd,
+    }
+    return Measurements(truth.x, truth.strain + offsets + noise, truth.loads, sigma_e=truth.sigma_e, attrs=attrs)
+
+
+def discrepancy_summary(discrepancy: np.ndarray, pitch: float) -> tuple[float, float]:
+    """Root mean square [µε] and correlation length [m] of a discrepancy along the fibre.
+
+    The correlation length is the lag at which the empirical autocorrelation, pooled over load
+    cases, ``ρ(k) = mean_{l,i}(d[l, i] d[l, i + k]) / mean_{l,i}(d[l, i]²)``, first drops below
+    1/e, interpolated linearly between lags.
+
+    Args:
+        discrepancy: `L x n` discrepancy [µε] at equally spaced positions.
+        pitch: spacing of the positions [m].
+    """
+    d = np.atleast_2d(np.asarray(discrepancy, dtype=np.float64))
+    power = float(np.mean(d**2))
+    previous = 1.0
+    for k in range(1, d.shape[1]):
+        rho = float(np.mean(d[:, :-k] * d[:, k:])) / power
+        if rho < np.exp(-1.0):
+            return float(np.sqrt(power)), pitch * (k - 1 + (previous - np.exp(-1.0)) / (previous - rho))
+        previous = rho
+    return float(np.sqrt(power)), float("inf")

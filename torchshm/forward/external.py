@@ -1,0 +1,209 @@
+"""A forward model that runs an external finite element program, once per θp.
+
+Each run gets a fresh work folder holding ``params.json`` (input), ``run.log`` (the program's
+stdout and stderr) and the strain file the program writes (output); the file contract is in
+:mod:`torchshm.forward.files` and ``docs/external_models.md``. A run that exits with a
+non-zero status, exceeds its timeout or writes no valid strains raises
+:class:`ExternalModelError`, which the evaluation store records as a failed evaluation.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import signal
+import subprocess
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from torchshm.forward.files import LOG_FILE, PARAMS_FILE, read_strains, write_params
+from torchshm.forward.protocol import as_tensor
+
+
+class ExternalModelError(RuntimeError):
+    """An external program run failed: exit status, timeout or unusable output."""
+
+
+class ExternalModel:
+    """Wrap an external FE program as a forward model (one program run per θp).
+
+    Args:
+        command: the program, as a list of arguments (run directly) or a string (run by the
+            shell). It runs with the work folder as current directory, so give scripts and
+            input files by absolute path. ``TORCHSHM_PARAMS``, ``TORCHSHM_OUTPUT`` and
+            ``TORCHSHM_WORKDIR`` hold the absolute paths of the run's files and folder.
+        x: sensor positions `n` [m].
+        loads: load cases `L` (front-axle positions [m]).
+        timeout: seconds after which a run is killed (its whole process group); None: never.
+        workdir: folder under which each run gets its own sub-folder; None: a
+            ``torchshm-runs`` folder in the system's temporary folder.
+        output: name of the strain file the program writes, ``*.npz`` or ``*.csv``.
+        names: parameter names written to ``params.json``; None: ``theta_0, theta_1, ...``.
+        identity: key of this model in an evaluation store; None: a hash of the command,
+            output name, parameter names, x and loads.
+        keep_workdirs: keep the folders of successful runs (failed ones are always kept).
+        kill_grace: seconds between SIGTERM and SIGKILL when a run times out.
+
+    Raises:
+        ValueError: on an empty command, non-finite or non-1-D ``x``/``loads``, a
+            non-positive timeout or an output name that is not ``.npz``/``.csv``.
+    """
+
+    def __init__(
+        self,
+        command: str | Sequence[str],
+        x: object,
+        loads: object,
+        timeout: float | None = None,
+        workdir: str | Path | None = None,
+        output: str = "strains.npz",
+        *,
+        names: Sequence[str] | None = None,
+        identity: str | None = None,
+        keep_workdirs: bool = True,
+        kill_grace: float = 5.0,
+    ) -> None:
+        self.command = _check_command(command)
+        self.x, self.loads = _check_axis(x, "x"), _check_axis(loads, "loads")
+        if timeout is not None and not timeout > 0:
+            raise ValueError(f"timeout must be positive seconds or None, got {timeout!r}")
+        if Path(output).suffix not in (".npz", ".csv") or Path(output).name != output:
+            raise ValueError(f"output must be a file name ending in .npz or .csv, got {output!r}")
+        self.timeout, self.output = timeout, output
+        base = Path(workdir) if workdir is not None else Path(tempfile.gettempdir()) / "torchshm-runs"
+        self.workdir = base.expanduser().resolve()
+        self.names = None if names is None else [str(name) for name in names]
+        self.keep_workdirs, self.kill_grace = keep_workdirs, float(kill_grace)
+        self.identity = identity if identity is not None else self._default_identity()
+
+    def __repr__(self) -> str:
+        return f"ExternalModel({self.command!r}, n={len(self.x)}, L={len(self.loads)})"
+
+    def __call__(self, theta_p: object) -> Tensor:
+        """Strains [µε] `... x L x n` for parameters `... x P`, one program run per row."""
+        theta = as_tensor(theta_p).detach()
+        if theta.ndim == 0:
+            raise ValueError("theta_p must have at least one dimension (..., P)")
+        rows = theta.reshape(-1, theta.shape[-1]).cpu().numpy()
+        strains = [self.run(row) for row in rows]
+        out = np.stack(strains) if strains else np.empty((0, len(self.loads), len(self.x)))
+        return torch.from_numpy(out).reshape(*theta.shape[:-1], len(self.loads), len(self.x))
+
+    def run(self, theta: np.ndarray) -> np.ndarray:
+        """Run the program once for parameters `P`; returns strains [µε] `L x n`.
+
+        Raises:
+            ValueError: if ``theta`` is not finite or has the wrong length.
+            ExternalModelError: if the program fails, times out or writes no valid strains.
+        """
+        theta = np.asarray(theta, dtype=np.float64).reshape(-1)
+        names = self.names or [f"theta_{i}" for i in range(len(theta))]
+        if len(names) != len(theta) or not np.isfinite(theta).all():
+            raise ValueError(f"theta_p {theta.tolist()} must be {len(names)} finite values")
+        folder = self._new_folder(theta)
+        write_params(folder / PARAMS_FILE, theta, names, self.x.numpy(), self.loads.numpy())
+        self._execute(folder)
+        try:
+            strain = read_strains(folder / self.output, self.x.numpy(), self.loads.numpy())
+        except ValueError as exc:
+            raise ExternalModelError(f"{exc} (work folder {folder})") from None
+        if not self.keep_workdirs:
+            shutil.rmtree(folder, ignore_errors=True)
+        return strain
+
+    def _execute(self, folder: Path) -> None:
+        """Run the command in ``folder``, output to run.log, and check how it ended."""
+        env = dict(os.environ, TORCHSHM_PARAMS=str(folder / PARAMS_FILE),
+                   TORCHSHM_OUTPUT=str(folder / self.output), TORCHSHM_WORKDIR=str(folder))
+        shell = isinstance(self.command, str)
+        with open(folder / LOG_FILE, "wb") as log:
+            try:
+                process = subprocess.Popen(
+                    self.command, cwd=folder, stdout=log, stderr=subprocess.STDOUT,
+                    stdin=subprocess.DEVNULL, shell=shell, env=env, start_new_session=True,
+                )
+            except OSError as exc:
+                raise ExternalModelError(f"cannot start {self.command!r}: {exc}") from None
+            try:
+                status = process.wait(timeout=self.timeout)
+            except subprocess.TimeoutExpired:
+                _kill_group(process, self.kill_grace)
+                raise ExternalModelError(
+                    f"program timed out after {self.timeout:g} s and was killed "
+                    f"(work folder {folder})"
+                ) from None
+            finally:
+                if process.poll() is None:  # interrupted while waiting: leave no orphan run
+                    _kill_group(process, self.kill_grace)
+        if status != 0:
+            raise ExternalModelError(
+                f"program exited with status {status} (work folder {folder}); "
+                f"last output: {_tail(folder / LOG_FILE)!r}"
+            )
+
+    def _new_folder(self, theta: np.ndarray) -> Path:
+        self.workdir.mkdir(parents=True, exist_ok=True)
+        tag = hashlib.sha256(np.ascontiguousarray(theta).tobytes()).hexdigest()[:8]
+        prefix = f"{time.strftime('%Y%m%d-%H%M%S')}-{tag}-"
+        return Path(tempfile.mkdtemp(prefix=prefix, dir=self.workdir))
+
+    def _default_identity(self) -> str:
+        config = json.dumps({"command": self.command, "output": self.output, "names": self.names})
+        digest = hashlib.sha256(config.encode())
+        digest.update(self.x.numpy().tobytes())
+        digest.update(self.loads.numpy().tobytes())
+        return f"ExternalModel-{digest.hexdigest()[:16]}"
+
+
+def _check_command(command: str | Sequence[str]) -> str | list[str]:
+    if isinstance(command, (str, os.PathLike)):
+        text = os.fspath(command)
+        if not text.strip():
+            raise ValueError("command is empty")
+        return text
+    args = [os.fspath(arg) for arg in command]
+    if not args or not all(isinstance(arg, str) and arg for arg in args):
+        raise ValueError(f"command must be a non-empty list of non-empty strings, got {command!r}")
+    return args
+
+
+def _check_axis(values: object, name: str) -> Tensor:
+    tensor = as_tensor(values).detach().cpu().clone()
+    if tensor.ndim != 1 or len(tensor) == 0 or not torch.isfinite(tensor).all():
+        raise ValueError(f"{name} must be a non-empty 1-D array of finite values")
+    return tensor
+
+
+def _kill_group(process: subprocess.Popen, grace: float) -> None:
+    """SIGTERM the run's process group, SIGKILL it after ``grace`` seconds, reap the leader."""
+    _signal_group(process.pid, signal.SIGTERM)
+    try:
+        process.wait(timeout=grace)
+    except subprocess.TimeoutExpired:
+        pass
+    _signal_group(process.pid, signal.SIGKILL)  # also whatever the leader left behind
+    process.wait()
+
+
+def _signal_group(group: int, sig: signal.Signals) -> None:
+    try:
+        os.killpg(group, sig)
+    except (ProcessLookupError, PermissionError):
+        pass
+
+
+def _tail(path: Path, n_chars: int = 300) -> str:
+    """Last line(s) of a log file, at most ``n_chars`` characters."""
+    try:
+        text = path.read_bytes()[-n_chars:].decode(errors="replace").strip()
+    except OSError:
+        return ""
+    return " | ".join(line.strip() for line in text.splitlines() if line.strip())

@@ -1,0 +1,44 @@
+"""``torchshm.identify``: one entry point for VBMC and emcee."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from torchshm.inference.posterior import Posterior
+
+METHODS = ("vbmc", "emcee")
+
+
+def identify(
+    problem: Any, method: str = "vbmc", seed: int = 0, *, log_dir: str | Path | None = None,
+    **options: Any,
+) -> Posterior:
+    """Infer the posterior of ``problem``'s parameters.
+
+    Args:
+        problem: a :class:`~torchshm.Problem`.
+        method: ``"vbmc"`` (PyVBMC, the paper's method) or ``"emcee"`` (the paper's benchmark:
+            affine-invariant ensemble MCMC).
+        seed: seed of every random draw of the run.
+        log_dir: TensorBoard folder written during the run (per VBMC iteration, or every
+            ``log_every`` emcee steps), or None.
+        **options: method options. VBMC: ``n_samples``, ``start``, ``reuse`` and any PyVBMC
+            option (``max_fun_evals``, ``display``, ...). emcee: ``n_walkers`` (40),
+            ``n_steps`` (2000), ``burn``, ``thin``, ``backend_path``, ``log_every``, ``window``.
+
+    Returns:
+        The :class:`Posterior`. A run that did not converge has ``converged = False`` and warns.
+
+    Raises:
+        ValueError: for an unknown method.
+    """
+    if method == "vbmc":
+        from torchshm.inference.variational import run_vbmc
+
+        return run_vbmc(problem, seed, log_dir=log_dir, **options)
+    if method == "emcee":
+        from torchshm.inference.mcmc import run_emcee
+
+        return run_emcee(problem, seed, log_dir=log_dir, **options)
+    raise ValueError(f"identify: unknown method {method!r}; choose one of {METHODS}")

@@ -1,0 +1,141 @@
+"""Where VBMC starts: a short search for the posterior mode, and the points handed to PyVBMC.
+
+Thousands of dense data points make the log joint span many orders of magnitude across the
+plausible box (e.g. -1e2 near the mode, -1e6 at a corner). A Gaussian process fitted to such
+values describes the peak poorly, and PyVBMC's default initial design (uniform in the plausible
+box) puts most of its first points in that flat, extremely low region (PyVBMC issue #99;
+output warping and noise shaping, MATLAB VBMC's remedies, are not ported to PyVBMC).
+
+The remedy here, with few model evaluations:
+
+1. a Latin hypercube design of ``n_design`` points in the plausible box (PyVBMC's own initial
+   design size, ``fun_eval_start``), evaluated as one batch;
+2. a Nelder-Mead search for the mode from the best design point, in coordinates scaled by the
+   plausible box, limited to ``n_local`` evaluations;
+3. VBMC then starts from the best points found: the ``fun_eval_start`` best become its
+   initial design (so VBMC spends no evaluation on a design of its own), and only points within
+   ``keep_threshold`` nats of the best are given to its Gaussian process.
+
+Every evaluation of the search is a real evaluation of the log joint: it is stored, counted and
+handed to VBMC, so nothing is spent twice.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize
+from scipy.stats import qmc
+
+from torchshm.inference.target import LogJointTarget
+
+
+@dataclass(frozen=True)
+class StartSettings:
+    """Settings of the mode search that precedes VBMC.
+
+    Attributes:
+        n_design: Latin hypercube points in the plausible box (None: PyVBMC's ``fun_eval_start``,
+            ``10 * ceil((D + 1) / 10)``).
+        n_local: largest number of Nelder-Mead evaluations (None: ``10 * D``); 0 skips it.
+        keep_threshold: points with a log joint more than this many nats below the best are not
+            given to VBMC (None: ``100 * (D + 2)``, PyVBMC's ``warmup_keep_threshold_false_alarm``).
+    """
+
+    n_design: int | None = None
+    n_local: int | None = None
+    keep_threshold: float | None = None
+
+    def resolved(self, dim: int) -> StartSettings:
+        """Settings with every None replaced by its default for dimension ``dim``."""
+        return StartSettings(
+            n_design=self.n_design if self.n_design is not None else 10 * -(-(dim + 1) // 10),
+            n_local=self.n_local if self.n_local is not None else 10 * dim,
+            keep_threshold=(
+                self.keep_threshold if self.keep_threshold is not None else 100.0 * (dim + 2)
+            ),
+        )
+
+
+def latin_design(plausible: np.ndarray, n: int, seed: int) -> np.ndarray:
+    """``n`` Latin hypercube points in the plausible box ``plausible`` (`D x 2`) -> `n x D`."""
+    if n <= 0:
+        return np.zeros((0, plausible.shape[0]))
+    sampler = qmc.LatinHypercube(d=plausible.shape[0], seed=np.random.default_rng([seed, 5]))
+    unit = sampler.random(n)
+    return plausible[:, 0] + unit * (plausible[:, 1] - plausible[:, 0])
+
+
+def local_search(
+    target: LogJointTarget, x_start: np.ndarray, plausible: np.ndarray, hard: np.ndarray,
+    max_evals: int,
+) -> None:
+    """Nelder-Mead ascent of the log joint from ``x_start``, at most ``max_evals`` evaluations.
+
+    The search runs in coordinates scaled by the plausible box (initial simplex: steps of 10 %
+    of the box), and stays strictly inside the hard bounds (points outside count as -inf
+    without an evaluation). Every evaluation is recorded by ``target``.
+    """
+    if max_evals <= 0:
+        return
+    lo, width = plausible[:, 0], plausible[:, 1] - plausible[:, 0]
+    budget = {"left": int(max_evals)}
+
+    def objective(u: np.ndarray) -> float:
+        theta = lo + u * width
+        if np.any(theta <= hard[:, 0]) or np.any(theta >= hard[:, 1]) or budget["left"] <= 0:
+            return np.inf
+        budget["left"] -= 1
+        value = float(target.evaluate(theta[None, :])[0])
+        return -value if np.isfinite(value) else np.inf
+
+    u0 = (x_start - lo) / width
+    simplex = np.vstack([u0, u0 + 0.1 * np.eye(len(u0))])
+    minimize(
+        objective, u0, method="Nelder-Mead",
+        options={"initial_simplex": simplex, "maxfev": int(max_evals), "xatol": 1e-4,
+                 "fatol": 1e-2},
+    )
+
+
+def find_start(
+    target: LogJointTarget, plausible: np.ndarray, hard: np.ndarray, settings: StartSettings,
+    seed: int,
+) -> None:
+    """Evaluate the design and run the local search; the evaluations stay in ``target``.
+
+    The local search starts from the best point known so far (a previous run's included), or
+    from the centre of the plausible box when none is known.
+    """
+    s = settings.resolved(plausible.shape[0])
+    design = latin_design(plausible, int(s.n_design or 0), seed)
+    if design.shape[0]:
+        target.evaluate(design)
+    if not s.n_local:
+        return
+    X, _ = target.known()
+    x_start = X[0] if X.shape[0] else plausible.mean(axis=1)
+    local_search(target, x_start, plausible, hard, int(s.n_local))
+
+
+def vbmc_start(
+    target: LogJointTarget, n_initial: int, keep_threshold: float,
+) -> tuple[np.ndarray | None, tuple[np.ndarray, np.ndarray] | None]:
+    """Starting points and precomputed evaluations for PyVBMC from what ``target`` knows.
+
+    Returns:
+        ``(x0, (X, y))``: up to ``n_initial`` best distinct points (`n0 x D`, best first), and
+        every known point within ``keep_threshold`` nats of the best with its log joint (the
+        ``x0`` rows among them, so PyVBMC evaluates none of them again). ``(None, None)`` when
+        nothing is known (PyVBMC then starts from the centre of the plausible box).
+    """
+    X, y = target.known()
+    if X.shape[0] == 0:
+        return None, None
+    keep = y >= y[0] - keep_threshold
+    X, y = X[keep], y[keep]
+    x0 = X[: max(1, int(n_initial))]
+    if x0.shape[0] > 1 and np.any(np.ptp(x0, axis=0) == 0):
+        x0 = x0[:1]  # a design without spread in a coordinate is refused by PyVBMC
+    return x0, (X, y)

@@ -1,0 +1,158 @@
+"""The log joint as an inference method sees it: counted, recorded, and never fatal.
+
+:class:`LogJointTarget` wraps ``problem.log_joint``. Every evaluation goes through the problem
+(and so through its evaluation store, where the model outputs of all load cases are kept).
+Each point the method asked for is appended, as soon as its value exists, to a small *point
+log* next to the store (:class:`PointLog`), so a later run on the same store can hand the
+previous run's points to the method again without a new model evaluation.
+
+A failed model run gives a non-finite log joint inside the support. emcee treats such a point
+as having zero density (the proposal is rejected). PyVBMC refuses non-finite values, so for
+VBMC the point gets the lowest log joint observed so far (a pessimistic imputation), and the run
+goes on; every failure is counted and reported in the posterior's diagnostics.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def store_path(problem: Any) -> Path | None:
+    """Path of the problem's evaluation store, or None when it has none."""
+    store = getattr(problem, "store", None)
+    if store is None:
+        return None
+    if isinstance(store, (str, os.PathLike)):
+        return Path(store)
+    path = getattr(store, "path", None)
+    return None if path is None else Path(path)
+
+
+class PointLog:
+    """Append-only record of the parameter vectors evaluated on one store.
+
+    One JSON line per evaluated point, ``{"names": [...], "theta": [...]}``, written and flushed
+    when the point's log joint is known; a run killed at any moment leaves a valid file (a torn
+    last line is skipped on reading). Several processes may append to the same file.
+
+    Args:
+        path: the file, conventionally ``<store>.points.jsonl`` (see :func:`point_log_for`).
+        names: the parameter names of the problem, which select the lines it can reuse.
+    """
+
+    def __init__(self, path: str | Path, names: list[str]) -> None:
+        self.path = Path(path)
+        self.names = list(names)
+
+    def append(self, theta: np.ndarray) -> None:
+        """Append the points ``theta`` (`N x D`)."""
+        lines = "".join(
+            json.dumps({"names": self.names, "theta": [float(v) for v in row]}) + "\n"
+            for row in np.atleast_2d(theta)
+        )
+        with open(self.path, "a", encoding="utf-8") as fh:
+            fh.write(lines)
+            fh.flush()
+
+    def read(self) -> np.ndarray:
+        """Distinct recorded points of problems with the same names, in first-seen order (`M x D`)."""
+        if not self.path.exists():
+            return np.zeros((0, len(self.names)))
+        rows: list[tuple[float, ...]] = []
+        seen: set[tuple[float, ...]] = set()
+        for line in self.path.read_text(encoding="utf-8").splitlines():
+            try:
+                item = json.loads(line)
+            except json.JSONDecodeError:
+                continue  # a line torn by a killed process
+            if item.get("names") != self.names:
+                continue
+            row = tuple(float(v) for v in item["theta"])
+            if row not in seen:
+                seen.add(row)
+                rows.append(row)
+        return np.array(rows, dtype=np.float64).reshape(-1, len(self.names))
+
+
+def point_log_for(problem: Any) -> PointLog | None:
+    """The :class:`PointLog` beside the problem's store, or None when it has no store."""
+    path = store_path(problem)
+    if path is None:
+        return None
+    return PointLog(path.with_name(path.name + ".points.jsonl"), list(problem.names))
+
+
+@dataclass
+class LogJointTarget:
+    """Counted, recorded evaluations of ``problem.log_joint``.
+
+    Attributes:
+        problem: object with ``log_joint(theta) -> (...)`` for ``theta`` `... x D`.
+        point_log: where evaluated points are recorded, or None.
+        impute_failures: replace a non-finite value inside the hard bounds by the lowest finite
+            value seen so far (for PyVBMC); otherwise return -inf (for emcee).
+        hard_bounds: `D x 2` hard bounds (points on or outside them are outside the support).
+        X, y: every evaluated point (`N x D`) and its log joint as returned by the problem.
+        n_failed: evaluations inside the hard bounds whose log joint was not finite.
+    """
+
+    problem: Any
+    point_log: PointLog | None = None
+    impute_failures: bool = False
+    hard_bounds: np.ndarray | None = None
+    X: list[np.ndarray] = field(default_factory=list)
+    y: list[float] = field(default_factory=list)
+    n_failed: int = 0
+
+    def evaluate(self, theta: np.ndarray) -> np.ndarray:
+        """Log joint of a batch ``theta`` (`N x D`) -> `N`, with failures handled as above."""
+        theta = np.atleast_2d(np.asarray(theta, dtype=np.float64))
+        raw = np.asarray(self.problem.log_joint(theta), dtype=np.float64).reshape(-1)
+        if self.point_log is not None:
+            self.point_log.append(theta)
+        self.X.extend(theta)
+        self.y.extend(raw.tolist())
+        return self._clean(theta, raw)
+
+    def __call__(self, theta: np.ndarray) -> float:
+        """Log joint of one point (`D` or `1 x D`) as a float: PyVBMC's target."""
+        return float(self.evaluate(np.reshape(theta, (1, -1)))[0])
+
+    def _clean(self, theta: np.ndarray, raw: np.ndarray) -> np.ndarray:
+        out = raw.copy()
+        bad = ~np.isfinite(out)
+        if self.hard_bounds is not None:
+            lo, hi = self.hard_bounds[:, 0], self.hard_bounds[:, 1]
+            inside = np.all((theta > lo) & (theta < hi), axis=1)
+            bad &= inside
+        self.n_failed += int(bad.sum())
+        out[np.isnan(out)] = -np.inf
+        if self.impute_failures and bad.any():
+            finite = np.asarray(self.y, dtype=np.float64)
+            finite = finite[np.isfinite(finite)]
+            if finite.size == 0:
+                raise RuntimeError(
+                    "the log joint is not finite at any point evaluated so far (every model run "
+                    "failed or lies outside the support); see the evaluation store for the errors"
+                )
+            out[bad] = finite.min()
+        return out
+
+    def known(self) -> tuple[np.ndarray, np.ndarray]:
+        """Distinct evaluated points with a finite log joint: (`M x D`, `M`), best first."""
+        if not self.X:
+            return np.zeros((0, 0)), np.zeros(0)
+        X = np.array(self.X)
+        y = np.array(self.y)
+        ok = np.isfinite(y)
+        X, y = X[ok], y[ok]
+        _, first = np.unique(X, axis=0, return_index=True)
+        X, y = X[np.sort(first)], y[np.sort(first)]
+        order = np.argsort(-y, kind="stable")
+        return X[order], y[order]

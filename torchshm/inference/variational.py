@@ -1,0 +1,175 @@
+"""Identification with Variational Bayesian Monte Carlo (PyVBMC), paper Section 2.2.
+
+The steps of :func:`run_vbmc`: read back the points a previous run on the same store evaluated;
+search briefly for the mode (:mod:`torchshm.inference.start`); run PyVBMC from there with the
+problem's hard and plausible bounds, tracing every iteration; draw samples from the variational
+posterior and flag a run that did not converge.
+"""
+
+from __future__ import annotations
+
+import copy
+import time
+import warnings
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+from pyvbmc import VBMC
+
+from torchshm.inference.posterior import Posterior
+from torchshm.inference.start import StartSettings, find_start, vbmc_start
+from torchshm.inference.target import LogJointTarget, point_log_for
+from torchshm.inference.tensorboard import RunTrace, marginal_scalars
+
+#: samples drawn from the variational posterior per iteration for the trace's intervals
+TRACE_SAMPLES = 20_000
+
+
+class TracedVBMC(VBMC):
+    """PyVBMC's ``VBMC`` with a callback after each iteration.
+
+    PyVBMC has no per-iteration callback (its ``output_fcn`` option is never called). The one
+    method that runs exactly once per iteration, after the iteration's ELBO, sKL and variational
+    posterior are recorded in ``iteration_history``, is ``_check_termination_conditions``; this
+    subclass calls ``on_iteration(self)`` right after it. Nothing else changes.
+    """
+
+    def __init__(self, *args: Any, on_iteration: Callable[[VBMC], None], **kwargs: Any) -> None:
+        self._on_iteration = on_iteration
+        super().__init__(*args, **kwargs)
+
+    def _check_termination_conditions(self):  # type: ignore[no-untyped-def]
+        result = super()._check_termination_conditions()
+        self._on_iteration(self)
+        return result
+
+
+def _iteration_row(vbmc: VBMC, names: list[str], n_precomputed: int, seed: int) -> dict[str, float]:
+    """Trace row of the iteration ``vbmc`` just finished (ELBO, sKL, marginal intervals)."""
+    it = int(vbmc.iteration)
+    hist = vbmc.iteration_history
+    vp = copy.deepcopy(hist["vp"][it])
+    vp.rng = np.random.default_rng([seed, 7, it])  # never draw from the run's own stream
+    draws, _ = vp.sample(TRACE_SAMPLES)
+    row = {
+        "iteration": float(it),
+        "n_evaluations": float(hist["func_count"][it] + n_precomputed),
+        "elbo": float(hist["elbo"][it]),
+        "elbo_sd": float(hist["elbo_sd"][it]),
+        "sKL": float(hist["sKL"][it]) if hist["sKL"][it] is not None else np.nan,
+    }
+    row.update(marginal_scalars(names, np.asarray(draws)))
+    return row
+
+
+def _pyvbmc_options(options: dict[str, Any], x0_rows: int, n_initial: int) -> dict[str, Any]:
+    """PyVBMC options: the user's, plus a narrow initial design when ``x0`` cannot fill it."""
+    opts = dict(options)
+    if 0 < x0_rows < n_initial:
+        # the rest of the initial design is drawn near the best point, not in the whole box
+        opts.setdefault("init_design", "narrow")
+    return opts
+
+
+def run_vbmc(
+    problem: Any,
+    seed: int = 0,
+    *,
+    log_dir: str | Path | None = None,
+    n_samples: int = 100_000,
+    start: StartSettings | None = None,
+    reuse: bool = True,
+    **options: Any,
+) -> Posterior:
+    """Run PyVBMC on ``problem`` (see :func:`torchshm.identify`).
+
+    Args:
+        problem: a :class:`~torchshm.Problem` (or any object with its attributes).
+        seed: seed of the starting design and of PyVBMC's generator.
+        log_dir: TensorBoard folder for the live trace, or None.
+        n_samples: samples drawn from the final variational posterior for ``post.samples``.
+        start: settings of the mode search before VBMC (:class:`StartSettings`).
+        reuse: start from the points a previous run on the same store evaluated.
+        **options: PyVBMC options (e.g. ``max_fun_evals``, ``display``), passed through.
+
+    Returns:
+        The :class:`Posterior`; ``converged`` is PyVBMC's ``success_flag``.
+    """
+    t0 = time.perf_counter()
+    names = list(problem.names)
+    hard = np.asarray(problem.hard_bounds, dtype=np.float64)
+    plausible = np.asarray(problem.plausible_bounds, dtype=np.float64)
+    calls_before = int(problem.n_model_evaluations)
+    target = LogJointTarget(problem, point_log_for(problem), impute_failures=True, hard_bounds=hard)
+    previous = target.point_log.read() if (reuse and target.point_log is not None) else None
+    if previous is not None and previous.shape[0]:
+        target.evaluate(previous)
+    n_reused = 0 if previous is None else int(previous.shape[0])
+    settings = (start or StartSettings()).resolved(len(names))
+    find_start(target, plausible, hard, settings, seed)
+    n_initial = int(settings.n_design or 0) or 10
+    x0, precomputed = vbmc_start(target, n_initial, float(settings.keep_threshold or 0.0))
+
+    trace = RunTrace(log_dir, step_key="iteration")
+    n_pre = 0 if precomputed is None else int(precomputed[0].shape[0])
+    n_x0 = 0 if x0 is None else int(x0.shape[0])
+    vbmc = TracedVBMC(
+        target, x0, hard[:, 0], hard[:, 1], plausible[:, 0], plausible[:, 1],
+        options=_pyvbmc_options(options, n_x0, n_initial), seed=seed,
+        precomputed_evaluations=precomputed,
+        on_iteration=lambda v: trace.log(_iteration_row(v, names, n_pre, seed)),
+    )
+    try:
+        vp, results = vbmc.optimize()
+    finally:
+        trace.close()
+    return _posterior(problem, vp, results, trace, target, calls_before, n_samples, seed, {
+        "n_reused_points": n_reused, "n_precomputed": n_pre,
+        "n_start_evaluations": len(target.y) - n_reused - int(results["func_count"]),
+        "wall_time_s": time.perf_counter() - t0,
+    })
+
+
+def _posterior(
+    problem: Any, vp: Any, results: dict[str, Any], trace: RunTrace, target: LogJointTarget,
+    calls_before: int, n_samples: int, seed: int, extra: dict[str, Any],
+) -> Posterior:
+    """Assemble the :class:`Posterior` of a finished PyVBMC run and warn when not converged."""
+    converged = bool(results["success_flag"])
+    diagnostics: dict[str, Any] = {
+        "iterations": int(results["iterations"]),
+        "vbmc_func_count": int(results["func_count"]),
+        "n_log_joint_evaluations": len(target.y),
+        "n_failed_evaluations": int(target.n_failed),
+        "train_set_size": int(results["train_set_size"]),
+        "components": int(results["components"]),
+        "r_index": float(results["r_index"]),
+        "convergence_status": str(results["convergence_status"]),
+        "message": str(results["message"]),
+        **extra,
+    }
+    n_calls = int(problem.n_model_evaluations) - calls_before
+    if not converged:
+        warnings.warn(
+            f"VBMC did not converge ({results['message'].strip()}); the posterior may be "
+            f"inaccurate: increase max_fun_evals or check the bounds",
+            RuntimeWarning, stacklevel=3,
+        )
+    if target.n_failed:
+        warnings.warn(
+            f"{target.n_failed} log-joint evaluations failed (model runs that did not finish); "
+            "they were given the lowest log joint seen; see the evaluation store for errors",
+            RuntimeWarning, stacklevel=3,
+        )
+    draw_vp = copy.deepcopy(vp)
+    draw_vp.rng = np.random.default_rng([seed, 11])
+    samples, _ = draw_vp.sample(int(n_samples))
+    vp.rng = np.random.default_rng([seed, 13])
+    return Posterior(
+        names=list(problem.names), method="vbmc", samples=np.asarray(samples, dtype=np.float64),
+        log_evidence=float(results["elbo"]), log_evidence_sd=float(results["elbo_sd"]),
+        n_model_evaluations=n_calls, converged=converged, diagnostics=diagnostics,
+        priors=dict(getattr(problem, "priors", {}) or {}), history=trace.history(),
+        variational=vp, n_chains=1, problem=problem,
+    )

@@ -1,0 +1,112 @@
+"""The base class of the distance kernels of the model discrepancy (paper, Table 6).
+
+A kernel here is stateless: its parameters, the scale ``sigma_a`` [µε] and the correlation
+length ``length`` [m], are passed at each call, so that one call builds the covariance matrices
+of a whole batch of parameter vectors (shape ``...``) at once.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import ClassVar
+
+import numpy as np
+import torch
+from torch import Tensor
+
+#: Smallest correlation length [m] used in a computation. Shorter lengths are raised to it: the
+#: correlation of two distinct points more than ~1e-6 m apart is then exactly 0 in float64, as it
+#: is for any shorter length, and ``d / l`` and its gradient stay finite at ``l = 0``.
+MIN_LENGTH = 1e-9
+
+
+def as_float64(values: object) -> Tensor:
+    """Float64 tensor of an array-like; tensors keep their device and autograd graph."""
+    if isinstance(values, Tensor):
+        return values.to(torch.float64)
+    return torch.as_tensor(np.array(values, dtype=np.float64, order="C"))
+
+
+def distances(x1: Tensor, x2: Tensor) -> Tensor:
+    """Absolute distances `n x m` [m] between positions `x1` (`n`) and `x2` (`m`)."""
+    return (x1.unsqueeze(-1) - x2.unsqueeze(-2)).abs()
+
+
+class Kernel(ABC):
+    """A stationary kernel ``k(d) = sigma_a**2 * rho(d; length)`` of the distance ``d``.
+
+    Subclasses set :attr:`name` and implement :meth:`correlation`; adding a kernel to
+    :data:`torchshm.kernels.KERNELS` means one such class and its entry in the registry.
+    """
+
+    #: name used in configuration files and in :data:`torchshm.kernels.KERNELS`
+    name: ClassVar[str]
+    #: whether the kernel has a correlation length parameter
+    has_length: ClassVar[bool] = True
+    #: whether every covariance matrix of distinct points is diagonal
+    is_diagonal: ClassVar[bool] = False
+
+    @abstractmethod
+    def correlation(self, d: Tensor, length: Tensor | None) -> Tensor:
+        """Correlation ``rho`` of points at distances `d` [m].
+
+        Args:
+            d: distances `... x n x m` [m], >= 0.
+            length: correlation lengths [m] broadcastable to `d` (e.g. `... x 1 x 1`); ``None``
+                for a kernel without length.
+
+        Returns:
+            `... x n x m` correlations, equal to 1 where ``d == 0``.
+        """
+
+    def __call__(
+        self,
+        x1: object,
+        x2: object | None = None,
+        *,
+        sigma_a: object = 1.0,
+        length: object | None = None,
+    ) -> Tensor:
+        """Covariance matrices ``K[..., i, j] = k(|x1_i - x2_j|)``.
+
+        Args:
+            x1: `n` positions [m].
+            x2: `m` positions [m]; ``None`` means ``x1``.
+            sigma_a: scale [µε], shape `...` (a scalar for one matrix).
+            length: correlation length [m], broadcastable with ``sigma_a``; ignored (may be
+                ``None``) when :attr:`has_length` is false.
+
+        Returns:
+            `... x n x m` covariances [µε²], float64.
+        """
+        x1 = as_float64(x1)
+        x2 = x1 if x2 is None else as_float64(x2)
+        sigma_a, length = self._parameters(sigma_a, length)
+        d = distances(x1, x2)
+        ell = None if length is None else length[..., None, None]
+        return sigma_a[..., None, None].square() * self.correlation(d, ell)
+
+    def diag(self, x: object, *, sigma_a: object = 1.0) -> Tensor:
+        """Diagonal `... x n` of ``self(x, sigma_a=sigma_a, length=...)`` [µε²]."""
+        x = as_float64(x)
+        sigma_a = as_float64(sigma_a)
+        return sigma_a[..., None].square().expand(*sigma_a.shape, x.shape[-1])
+
+    def _parameters(self, sigma_a: object, length: object | None) -> tuple[Tensor, Tensor | None]:
+        """``sigma_a`` and ``length`` as float64 tensors broadcast to a common shape."""
+        sigma_a = as_float64(sigma_a)
+        if not self.has_length:
+            return sigma_a, None
+        if length is None:
+            raise ValueError(f"kernel {self.name!r} needs a correlation length, got None")
+        length = as_float64(length)
+        shape = torch.broadcast_shapes(sigma_a.shape, length.shape)
+        return sigma_a.expand(shape), length.expand(shape)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}()"
+
+
+def scaled_distance(d: Tensor, length: Tensor) -> Tensor:
+    """``d / length`` with the length raised to at least :data:`MIN_LENGTH` (finite gradients)."""
+    return d / length.clamp_min(MIN_LENGTH)

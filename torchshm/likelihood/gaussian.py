@@ -1,0 +1,137 @@
+"""The likelihood of Eq. (21): a Gaussian per load case with a correlated discrepancy.
+
+For load case ``l`` with model prediction ``eta_l`` (`n`) at positions ``x``::
+
+    y_l ~ N(eta_l, sigma_m**2 diag(eta_l)**2 + K + sigma_e**2 I)
+
+where ``K`` is the discrepancy kernel matrix, shared by all load cases of one parameter vector.
+Load cases are independent (block-diagonal covariance), so the log-likelihood is the sum of `L`
+`n`-dimensional Gaussian log densities; it is never formed as one `L n x L n` matrix.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+from torch import Tensor
+
+from torchshm.kernels import Kernel, get_kernel
+from torchshm.kernels.base import as_float64
+from torchshm.likelihood.cholesky import cholesky_with_jitter
+
+#: largest covariance batch [bytes] factorised at once; bigger batches are split in chunks
+CHUNK_BYTES = 2**27
+LOG_2PI = math.log(2.0 * math.pi)
+
+
+def log_likelihood(
+    y: object,
+    eta: object,
+    x: object,
+    kernel: str | Kernel,
+    sigma_a: object,
+    length: object | None = None,
+    sigma_m: float = 0.05,
+    sigma_e: float = 0.1,
+) -> Tensor:
+    """Log-likelihood of Eq. (21) for a batch of model predictions and kernel parameters.
+
+    The kernel matrix is built once per parameter vector and shared by its load cases; each
+    load case adds its own diagonal ``sigma_m**2 eta_l**2 + sigma_e**2``. All covariances are
+    factorised in batched Cholesky calls (in chunks of at most ``CHUNK_BYTES``); see
+    :mod:`torchshm.likelihood.cholesky` for the jitter policy (a well-conditioned covariance is
+    never perturbed). When ``sigma_m == 0`` the covariance is common to all load cases and is
+    factorised once per parameter vector. The ``independent`` kernel needs no factorisation.
+
+    Args:
+        y: `L x n` measured strains [µε].
+        eta: `... x L x n` model predictions [µε] (differentiable).
+        x: `n` positions [m].
+        kernel: a name from :data:`torchshm.kernels.KERNELS` or a :class:`Kernel`.
+        sigma_a: discrepancy scale [µε], broadcastable to `...` (differentiable).
+        length: correlation length [m], broadcastable to `...` (differentiable); ignored (may
+            be ``None``) for a kernel without length such as ``independent``.
+        sigma_m: standard deviation of the multiplicative model error (dimensionless), >= 0.
+        sigma_e: standard deviation of the measurement noise [µε], >= 0.
+
+    Returns:
+        `...` log-likelihoods (float64 tensor; the batch shape is the broadcast of `eta`'s,
+        `sigma_a`'s and `length`'s). -inf where a covariance cannot be factorised even with the
+        largest jitter; NaN where an input is NaN.
+
+    Raises:
+        ValueError: for an unknown kernel, mismatched shapes, or a negative or non-finite
+            ``sigma_m`` or ``sigma_e``.
+    """
+    kern = get_kernel(kernel)
+    eta = as_float64(eta)
+    y = as_float64(y).to(eta.device)
+    x = as_float64(x).to(eta.device)
+    _check_shapes(y, eta, x)
+    sigma_m, sigma_e = _check_scale("sigma_m", sigma_m), _check_scale("sigma_e", sigma_e)
+    sa = as_float64(sigma_a).to(eta.device)
+    ell = as_float64(0.0 if length is None or not kern.has_length else length).to(eta.device)
+    batch = torch.broadcast_shapes(eta.shape[:-2], sa.shape, ell.shape)
+    n_batch = math.prod(batch)
+    eta_f = eta.expand(*batch, *y.shape).reshape(n_batch, *y.shape)
+    sa_f, ell_f = sa.expand(batch).reshape(n_batch), ell.expand(batch).reshape(n_batch)
+    shared = sigma_m == 0.0
+    per_matrix = (1 if shared else y.shape[0]) * y.shape[1] ** 2 * 8
+    size = max(1, CHUNK_BYTES // per_matrix)
+    parts = [
+        _block_log_density(y, eta_f[i : i + size], x, kern, sa_f[i : i + size],
+                           ell_f[i : i + size], sigma_m, sigma_e)
+        for i in range(0, n_batch, size)
+    ]
+    out = torch.cat(parts) if parts else eta_f.new_zeros(0)
+    bad = ~(torch.isfinite(eta_f).all(-1).all(-1) & torch.isfinite(sa_f) & torch.isfinite(ell_f))
+    return torch.where(bad, torch.nan, out).reshape(batch)
+
+
+def _block_log_density(
+    y: Tensor, eta: Tensor, x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor,
+    sigma_m: float, sigma_e: float,
+) -> Tensor:
+    """Log-likelihoods `B` for flat batches ``eta`` (`B x L x n`), ``sigma_a`` and ``length`` (`B`)."""
+    n_loads, n = y.shape
+    resid = y - eta
+    noise = sigma_e**2 + sigma_m**2 * eta.square()  # B x L x n
+    if kern.is_diagonal:
+        var = kern.diag(x, sigma_a=sigma_a)[:, None, :] + noise
+        singular = (var <= 0).any(-1).any(-1)
+        var = torch.where(var > 0, var, 1.0)
+        terms = resid.square() / var + var.log() + LOG_2PI
+        return torch.where(singular, -torch.inf, -0.5 * terms.sum((-1, -2)))
+    if sigma_m == 0.0:
+        noise = noise[:, :1]  # identical for every load case: one factorisation
+    cov = kern(x, sigma_a=sigma_a, length=length)[:, None].expand(-1, noise.shape[1], n, n)
+    cov = cov.clone()
+    cov.diagonal(dim1=-2, dim2=-1).add_(noise)
+    chol, failed = cholesky_with_jitter(cov)  # B x L' x n x n, L' = L or 1
+    z = torch.linalg.solve_triangular(chol, resid.unsqueeze(-1), upper=False)
+    log_det = 2.0 * chol.diagonal(dim1=-2, dim2=-1).log().sum(-1)  # B x L'
+    log_det = log_det.sum(-1) * (n_loads / noise.shape[1])
+    value = -0.5 * (z.square().sum((-1, -2, -3)) + log_det + n_loads * n * LOG_2PI)
+    return torch.where(failed.any(-1), -torch.inf, value)
+
+
+def _check_shapes(y: Tensor, eta: Tensor, x: Tensor) -> None:
+    """Raise ``ValueError`` unless ``y`` is `L x n`, ``eta`` `... x L x n` and ``x`` `n`."""
+    if y.ndim != 2:
+        raise ValueError(f"log_likelihood: y must have shape (L, n), got {tuple(y.shape)}")
+    if eta.ndim < 2 or eta.shape[-2:] != y.shape:
+        raise ValueError(
+            f"log_likelihood: eta must have shape (..., {y.shape[0]}, {y.shape[1]}) like y, "
+            f"got {tuple(eta.shape)}"
+        )
+    if x.shape != (y.shape[1],):
+        raise ValueError(f"log_likelihood: x must have shape ({y.shape[1]},), got {tuple(x.shape)}")
+
+
+def _check_scale(name: str, value: float) -> float:
+    """``value`` as a float; ``ValueError`` naming ``name`` when negative or not finite."""
+    value = float(value)
+    if not math.isfinite(value) or value < 0:
+        raise ValueError(f"log_likelihood: {name} must be finite and >= 0, got {value}")
+    return value

@@ -1,0 +1,273 @@
+"""A Bayesian identification problem: forward model, measurements, kernel and priors.
+
+``Problem.log_joint`` is the unnormalised log posterior handed to VBMC or emcee. Each distinct
+physical parameter vector is sent to the forward model once per ``Problem`` (outputs are cached
+under their 12-significant-digit key) and, when a store is given, once ever: the store persists
+every evaluation and is consulted before the model is called.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from os import PathLike
+from typing import Any
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from torchshm.kernels import Kernel, get_kernel
+from torchshm.kernels.base import as_float64
+from torchshm.likelihood.gaussian import log_likelihood
+from torchshm.likelihood.parameters import STATISTICAL, canonical_key, match_positions, read_priors
+from torchshm.priors import Prior, paper_priors
+
+
+class Problem:
+    """Likelihood of Eq. (21) and priors of one identification problem.
+
+    Args:
+        model: forward model ``model(theta_p) -> ... x L_model x n_model`` [µε] with attributes
+            ``x`` and ``loads`` (and optionally ``names``, its parameter names).
+        measurements: a :class:`~torchshm.data.Measurements` (``x``, ``y``, ``loads``,
+            ``sigma_e``); its loads and positions must be among the model's (within 1e-6 m).
+        kernel: discrepancy kernel name (:data:`torchshm.kernels.KERNELS`) or instance.
+        priors: name -> :class:`~torchshm.priors.Prior` or a number (fixes the parameter);
+            ``None`` means :func:`~torchshm.priors.paper_priors`. Entries other than ``sigma_a``
+            and ``length`` are the physical parameters, passed to the model in this order (in
+            ``model.names`` order when the model declares names). A ``length`` entry is dropped
+            for a kernel without length.
+        sigma_m: standard deviation of the multiplicative model error, >= 0.
+        sigma_e: measurement noise [µε], >= 0; ``None`` means ``measurements.sigma_e``.
+        store: path of an evaluation store or an ``EvaluationStore``; every model evaluation
+            goes through :func:`torchshm.storage.evaluate` and is persisted there.
+
+    Raises:
+        ValueError: naming the problem: unknown kernel, measured load cases or positions the
+            model does not produce, negative ``sigma_m`` or ``sigma_e``, or a bad priors entry.
+    """
+
+    def __init__(
+        self,
+        model: Any,
+        measurements: Any,
+        kernel: str | Kernel = "matern32",
+        priors: Mapping[str, Prior | float] | None = None,
+        sigma_m: float = 0.05,
+        sigma_e: float | None = None,
+        store: str | PathLike[str] | Any | None = None,
+    ) -> None:
+        self.model = model
+        self.measurements = measurements
+        self.kernel = get_kernel(kernel)
+        self.sigma_m = _scale("sigma_m", sigma_m)
+        self.sigma_e = _scale("sigma_e", measurements.sigma_e if sigma_e is None else sigma_e)
+        self.priors, self.physical_names = read_priors(
+            paper_priors() if priors is None else priors, self.kernel, getattr(model, "names", None)
+        )
+        self.names = [n for n in self.physical_names if isinstance(self.priors[n], Prior)]
+        self.names += [n for n in STATISTICAL if isinstance(self.priors.get(n), Prior)]
+        self.load_index = match_positions(measurements.loads, _numpy(model.loads), "load case")
+        self.x_index = match_positions(measurements.x, _numpy(model.x), "position")
+        self._y = torch.as_tensor(np.asarray(measurements.y, dtype=np.float64))
+        self._x = torch.as_tensor(np.asarray(measurements.x, dtype=np.float64))
+        self.store = _open_store(store)
+        self.n_model_evaluations = 0
+        self._cache: dict[tuple[float, ...], Tensor] = {}
+
+    # ------------------------------------------------------------------ bounds and prior
+    @property
+    def hard_bounds(self) -> np.ndarray:
+        """`D x 2` hard bounds of the inferred parameters, in :attr:`names` order."""
+        return np.array([self.priors[n].hard_bounds for n in self.names])  # type: ignore[union-attr]
+
+    @property
+    def plausible_bounds(self) -> np.ndarray:
+        """`D x 2` plausible bounds of the inferred parameters, in :attr:`names` order."""
+        return np.array([self.priors[n].plausible_bounds for n in self.names])  # type: ignore[union-attr]
+
+    def sample_prior(self, n: int, rng: np.random.Generator | int | None = None) -> np.ndarray:
+        """`n x D` independent draws from the prior."""
+        rng = np.random.default_rng(rng)
+        cols = [self.priors[name].sample(n, rng) for name in self.names]  # type: ignore[union-attr]
+        return np.column_stack(cols) if cols else np.zeros((int(n), 0))
+
+    def log_prior(self, theta: object) -> Tensor | np.ndarray:
+        """Log prior density `...` of ``theta`` (`... x D`); -inf outside the support."""
+        flat, shape, is_torch = self._flatten(theta)
+        return _result(self._log_prior(flat), shape, is_torch)
+
+    # ------------------------------------------------------------------ likelihood
+    def log_likelihood(self, theta: object) -> Tensor | np.ndarray:
+        """Log-likelihood (Eq. 21) `...` of ``theta`` (`... x D`); -inf outside the hard bounds."""
+        flat, shape, is_torch = self._flatten(theta)
+        lo, hi = (torch.as_tensor(b) for b in self.hard_bounds.T)
+        inside = ((flat >= lo) & (flat <= hi)).all(-1)
+        return _result(self._where_rows(flat, inside, self._log_likelihood), shape, is_torch)
+
+    def log_joint(self, theta: object) -> Tensor | np.ndarray:
+        """Unnormalised log posterior `...` of ``theta`` (`... x D`), numpy or torch.
+
+        -inf (never NaN, never an exception) outside the prior support or where the model
+        output is not finite; the model is only evaluated where the prior density is positive.
+        """
+        flat, shape, is_torch = self._flatten(theta)
+        prior = self._log_prior(flat)
+        ok = torch.isfinite(prior)
+        value = prior + self._where_rows(flat, ok, self._log_likelihood)
+        return _result(torch.where(ok, value, -torch.inf), shape, is_torch)
+
+    def _log_prior(self, flat: Tensor) -> Tensor:
+        total = flat.new_zeros(flat.shape[0])
+        for i, name in enumerate(self.names):
+            total = total + self.priors[name].log_prob(flat[:, i])  # type: ignore[union-attr]
+        return _nan_to_neg_inf(total)
+
+    def _log_likelihood(self, rows: Tensor) -> Tensor:
+        """Log-likelihoods `B` of parameter vectors `B x D` inside the support."""
+        outputs = self.model_outputs(self._physical(rows))
+        eta = outputs[:, self.load_index][:, :, self.x_index]
+        finite = torch.isfinite(eta).all(-1).all(-1)
+        eta = torch.where(finite[:, None, None], eta, 0.0)
+        sigma_a, length = (self._column(rows, name) for name in STATISTICAL)
+        value = log_likelihood(
+            self._y, eta, self._x, self.kernel, sigma_a, length if self.kernel.has_length else None,
+            self.sigma_m, self.sigma_e,
+        )
+        return torch.where(finite, _nan_to_neg_inf(value), -torch.inf)
+
+    def _where_rows(self, flat: Tensor, mask: Tensor, fn: Any) -> Tensor:
+        """``fn(flat[mask])`` on the masked rows, -inf on the others (differentiable)."""
+        out = torch.full((flat.shape[0],), -math.inf, dtype=flat.dtype)
+        if bool(mask.any()):
+            idx = mask.nonzero(as_tuple=True)
+            out = out.index_put(idx, fn(flat[idx]))
+        return out
+
+    # ------------------------------------------------------------------ parameters
+    def _flatten(self, theta: object) -> tuple[Tensor, tuple[int, ...], bool]:
+        is_torch = isinstance(theta, Tensor)
+        t = as_float64(theta)
+        if t.ndim == 0 or t.shape[-1] != len(self.names):
+            raise ValueError(f"theta must have shape (..., {len(self.names)}) for {self.names}, got {tuple(t.shape)}")
+        return t.reshape(-1, len(self.names)), tuple(t.shape[:-1]), is_torch
+
+    def _column(self, rows: Tensor, name: str) -> Tensor:
+        """Values `B` of parameter ``name`` (inferred or fixed) for parameter vectors `B x D`."""
+        if name in self.names:
+            return rows[:, self.names.index(name)]
+        return rows.new_full((rows.shape[0],), float(self.priors.get(name, 0.0)))  # type: ignore[arg-type]
+
+    def _physical(self, rows: Tensor) -> Tensor:
+        """Physical parameter vectors `B x P` (fixed values filled in) of rows `B x D`."""
+        return torch.stack([self._column(rows, name) for name in self.physical_names], dim=-1)
+
+    # ------------------------------------------------------------------ model evaluations
+    def model_outputs(self, theta_p: object) -> Tensor:
+        """Model strains `... x L_model x n_model` [µε] for physical parameters `... x P`.
+
+        Each distinct vector (to 12 significant digits) is evaluated once per call, and once
+        per ``Problem`` (in-process cache) or, with a store, once per store. A tensor that
+        requires grad is sent to the model every time (cached outputs carry no graph), unless
+        a store is used; with a store the outputs are never differentiable.
+        """
+        tp = as_float64(theta_p)
+        flat = tp.reshape(-1, tp.shape[-1])
+        keys = [canonical_key(row) for row in flat.detach().cpu().numpy()]
+        unique, first, inverse = _dedupe(keys)
+        if flat.requires_grad and self.store is None:
+            out = self._call_model(flat[first])
+            self._cache.update((k, o.detach()) for k, o in zip(unique, out))
+        else:
+            todo = [i for i, k in zip(first, unique) if k not in self._cache]
+            if todo:
+                self._evaluate(flat[todo].detach(), [keys[i] for i in todo])
+            out = torch.stack([self._cache.get(k, self._failed()) for k in unique])
+        return out[inverse].reshape(*tp.shape[:-1], *out.shape[-2:])
+
+    def _call_model(self, rows: Tensor) -> Tensor:
+        self.n_model_evaluations += rows.shape[0]
+        out = as_float64(self.model(rows))
+        expected = (rows.shape[0], len(_numpy(self.model.loads)), len(_numpy(self.model.x)))
+        if tuple(out.shape) != expected:
+            raise ValueError(f"the model returned shape {tuple(out.shape)}, expected {expected}")
+        return out
+
+    def _evaluate(self, rows: Tensor, keys: list[tuple[float, ...]]) -> None:
+        """Evaluate rows `U x P` (directly or through the store) and cache finished outputs."""
+        if self.store is None:
+            with torch.no_grad():
+                outputs = self._call_model(rows)
+            self._cache.update((k, o.detach()) for k, o in zip(keys, outputs))
+            return
+        from torchshm.storage import evaluate
+
+        res = evaluate(self.model, rows.numpy(), store=self.store)
+        self.n_model_evaluations += int(res.n_new)
+        outputs = torch.as_tensor(np.asarray(res.outputs, dtype=np.float64))
+        self._cache.update((k, o) for k, o, ok in zip(keys, outputs, res.ok) if ok)
+
+    def _failed(self) -> Tensor:
+        shape = (len(_numpy(self.model.loads)), len(_numpy(self.model.x)))
+        return torch.full(shape, math.nan, dtype=torch.float64)
+
+    def evaluations(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(theta_p (M, P), outputs (M, L_model, n_model))`` of every finished evaluation
+        this problem has made or found in its store (non-finite outputs excluded)."""
+        if self.store is not None:
+            theta_p, outputs = self.store.all(self.model)
+            theta_p = np.asarray(theta_p, dtype=np.float64).reshape(len(outputs), len(self.physical_names))
+            return theta_p, np.asarray(outputs, dtype=np.float64)
+        items = [(k, o) for k, o in self._cache.items() if bool(torch.isfinite(o).all())]
+        theta_p = np.array([k for k, _ in items], dtype=np.float64).reshape(len(items), len(self.physical_names))
+        outputs = torch.stack([o for _, o in items]).numpy() if items else self._failed()[None][:0].numpy()
+        return theta_p, outputs
+
+    def __repr__(self) -> str:
+        return (
+            f"Problem(kernel={self.kernel.name!r}, names={self.names}, "
+            f"loads={len(self.load_index)}, n={len(self.x_index)})"
+        )
+
+
+def _dedupe(keys: list[tuple[float, ...]]) -> tuple[list[tuple[float, ...]], list[int], Tensor]:
+    """Distinct keys (first-seen order), the index of each one's first row, and for every row
+    the position of its key among the distinct ones."""
+    slot: dict[tuple[float, ...], int] = {}
+    first: list[int] = []
+    for i, key in enumerate(keys):
+        if key not in slot:
+            slot[key] = len(first)
+            first.append(i)
+    return list(slot), first, torch.as_tensor([slot[k] for k in keys], dtype=torch.long)
+
+
+def _nan_to_neg_inf(value: Tensor) -> Tensor:
+    return torch.where(torch.isnan(value), -torch.inf, value)
+
+
+def _scale(name: str, value: object) -> float:
+    value = float(value)  # type: ignore[arg-type]
+    if not math.isfinite(value) or value < 0:
+        raise ValueError(f"Problem: {name} must be finite and >= 0, got {value}")
+    return value
+
+
+def _numpy(values: object) -> np.ndarray:
+    if isinstance(values, Tensor):
+        return values.detach().cpu().numpy().astype(np.float64)
+    return np.asarray(values, dtype=np.float64)
+
+
+def _open_store(store: object) -> Any:
+    if store is None or not isinstance(store, (str, PathLike)):
+        return store
+    from torchshm.storage import EvaluationStore
+
+    return EvaluationStore(store)
+
+
+def _result(value: Tensor, shape: tuple[int, ...], is_torch: bool) -> Tensor | np.ndarray:
+    value = value.reshape(shape)
+    return value if is_torch else value.detach().numpy()[()]

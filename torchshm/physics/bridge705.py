@@ -1,0 +1,129 @@
+"""The forward model of bridge 705: deck bottom-fibre strains under truck T1.
+
+The stiffness of the frame is affine in the two physical parameters,
+
+    K(θ) = E · K0 + K_r · P Pᵀ,
+
+with E = 1000 · E_c [N/mm²], K0 the stiffness at E = 1 N/mm² with hinged pier bases
+(nonsingular) and P the `n_free x 6` selection of the pier-base rotations. The loads F and the
+strain recovery B do not depend on θ. With κ = K_r / E, the Woodbury identity gives the strains
+exactly as
+
+    s(θ) = (1 / E) · [S0 − G (I / κ + H)⁻¹ R],
+
+S0 = B K0⁻¹ F, G = B K0⁻¹ P, H = Pᵀ K0⁻¹ P, R = Pᵀ K0⁻¹ F, computed once at construction. An
+evaluation is then a batch of 6 x 6 solves. 1 / κ = E · 10^(−log10 K_r) is formed in log space,
+so K_r → ∞ (fixed bases, 1 / κ → 0) and K_r → 0 (hinged bases, 1 / κ → ∞) are both exact limits.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from torchshm.forward.protocol import as_tensor
+from torchshm.physics.config import Bridge705Config
+from torchshm.physics.frame import reduced_stiffness
+from torchshm.physics.geometry import BridgeMesh, PierBase, build_mesh
+
+#: formulation tag, part of the model identity (change it when the strains would change)
+FORMULATION = "frame-woodbury-v1"
+
+#: largest log(1/κ) used; beyond it the pier springs contribute below double precision
+_MAX_LOG_INV_KAPPA = 600.0
+
+
+def bridge_mesh(config: Bridge705Config, E: float = 1.0, pier_base: PierBase = "hinged", K_r: float = 0.0) -> BridgeMesh:
+    """The frame of the model for a modulus `E` [N/mm²] and a pier-base condition."""
+    deck, pier = config.deck, config.pier
+    return build_mesh(
+        deck_x=config.deck_x(),
+        deck_EA=E * deck.area,
+        deck_EI=E * deck.inertia,
+        pier_x=config.pier_x(),
+        pier_height=config.pier_height,
+        pier_EA=E * pier.area,
+        pier_EI=E * pier.inertia,
+        pier_elements=config.pier_elements,
+        pier_base=pier_base,
+        K_r=K_r,
+    )
+
+
+def load_matrix(mesh: BridgeMesh, config: Bridge705Config) -> Tensor:
+    """`n_dof x L` nodal forces [N] of the truck at each front-axle position of `config`."""
+    columns = [mesh.point_loads(*config.truck.on_deck(front, config.length)) for front in config.loads]
+    return torch.stack(columns, dim=1)
+
+
+class Bridge705:
+    """2-D Euler–Bernoulli frame model of bridge 705 (deck strip on six pier rows).
+
+    Call it with `theta_p` (`... x 2`) = (E_c [GPa], log10 K_r [log10 N·mm/rad]) to get the
+    bottom-fibre strains [µε] (`... x L x n`, tension positive) at the fibre positions
+    :attr:`x` for every truck position in :attr:`loads`. Batched and differentiable.
+
+    Attributes:
+        x: `n` sensor positions [m] (351 points, 35.0 .. 70.0 m).
+        loads: `L` front-axle positions [m] of truck T1 (12 load cases).
+        names: names of the physical parameters, in input order.
+        identity: stable key of the configuration and formulation.
+        config: the configuration.
+    """
+
+    names: tuple[str, ...] = ("E_c", "log10_K_r")
+
+    def __init__(self, config: Bridge705Config | None = None) -> None:
+        self.config = config or Bridge705Config()
+        self.x = torch.as_tensor(self.config.sensor_x(), dtype=torch.float64)
+        self.loads = torch.as_tensor(self.config.loads, dtype=torch.float64)
+        self.identity = f"{self.config.identity()}-{FORMULATION}"
+        self._precompute()
+
+    def _precompute(self) -> None:
+        """Solve K0 once for the loads and the pier-base rotations; keep the reduced operators."""
+        mesh = bridge_mesh(self.config)
+        free = mesh.frame.free
+        position = torch.full((mesh.frame.n_dof,), -1, dtype=torch.int64)
+        position[free] = torch.arange(free.numel())
+        springs = position[mesh.pier_base_rotations]
+        F = load_matrix(mesh, self.config)[free]
+        P = torch.zeros(free.numel(), springs.numel(), dtype=torch.float64)
+        P[springs, torch.arange(springs.numel())] = 1.0
+        factor = torch.linalg.cholesky(reduced_stiffness(mesh.frame))
+        solution = torch.cholesky_solve(torch.cat([F, P], dim=1), factor)
+        K0_inv_F, K0_inv_P = solution[:, : F.shape[1]], solution[:, F.shape[1] :]
+        B = mesh.strain_operator(self.config.sensor_x(), self.config.deck.c_b)[:, free]
+        self.S0 = B @ K0_inv_F  # n x L
+        self.G = B @ K0_inv_P  # n x 6
+        self.H = K0_inv_P[springs]  # 6 x 6
+        self.R = K0_inv_F[springs]  # 6 x L
+
+    def __call__(self, theta_p: Tensor | np.ndarray) -> Tensor:
+        """Strains [µε] `... x L x n` for `theta_p` `... x 2` = (E_c [GPa], log10 K_r)."""
+        theta = as_tensor(theta_p)
+        if theta.shape[-1] != 2:
+            raise ValueError(f"bridge705: theta_p must end in 2 parameters (E_c, log10_K_r), got shape {tuple(theta.shape)}")
+        E = 1000.0 * theta[..., 0]
+        log_inv_kappa = torch.log(E) - math.log(10.0) * theta[..., 1]
+        inv_kappa = torch.exp(torch.clamp(log_inv_kappa, max=_MAX_LOG_INV_KAPPA))
+        eye = torch.eye(self.H.shape[0], dtype=torch.float64)
+        A = inv_kappa[..., None, None] * eye + self.H
+        correction = self.G @ torch.linalg.solve(A, self.R)  # ... x n x L
+        strain = (self.S0 - correction) / E[..., None, None]
+        return 1e6 * strain.transpose(-1, -2)
+
+    def __repr__(self) -> str:
+        return f"Bridge705({self.loads.numel()} load cases, {self.x.numel()} sensors, {self.identity})"
+
+
+def bridge705(config: Bridge705Config | None = None) -> Bridge705:
+    """The finite element model of bridge 705 (see :class:`Bridge705`).
+
+    Args:
+        config: dimensions, sensors and load cases; defaults to ``Bridge705Config()``.
+    """
+    return Bridge705(config)

@@ -1,0 +1,84 @@
+"""Information gain from prior to posterior: KL divergence by Monte Carlo (paper, Eq. 19).
+
+``D_KL(q || p) = E_q[log q(theta) - log p(theta)]`` with ``q`` the posterior's density
+(``post.log_pdf``, the variational density for VBMC) and ``p`` the prior of the inferred
+parameters, estimated as the mean over ``n`` draws of ``q``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+
+
+@dataclass(frozen=True)
+class KLEstimate:
+    """A Monte Carlo estimate of the KL divergence.
+
+    Attributes:
+        value: the estimate [nats].
+        se: its Monte Carlo standard error [nats].
+        n: number of draws.
+    """
+
+    value: float
+    se: float
+    n: int
+
+    def __float__(self) -> float:
+        return self.value
+
+    def __str__(self) -> str:
+        return f"{self.value:.3f} ± {self.se:.3f} nats (n = {self.n})"
+
+
+def log_prior(priors: Any, names: list[str], theta: np.ndarray) -> np.ndarray:
+    """Log prior density `n` of draws `n x D` under independent priors of the named columns.
+
+    Args:
+        priors: name -> prior with ``log_prob`` (torch tensors or numpy arrays accepted), or a
+            number for a fixed parameter; fixed parameters must not be among ``names``.
+        names: `D` names of the columns of ``theta``.
+        theta: `n x D` parameter values.
+    """
+    total = np.zeros(theta.shape[0])
+    for k, name in enumerate(names):
+        prior = priors[name]
+        if not hasattr(prior, "log_prob"):
+            raise ValueError(f"kl_divergence: parameter {name!r} is inferred but its prior {prior!r} has no log_prob")
+        values = prior.log_prob(torch.as_tensor(theta[:, k], dtype=torch.float64))
+        if isinstance(values, torch.Tensor):
+            values = values.detach().cpu().numpy()
+        total += np.asarray(values, dtype=np.float64).reshape(-1)
+    return total
+
+
+def kl_divergence(post: Any, n: int = 10_000, seed: int = 0) -> KLEstimate:
+    """KL divergence from the prior to the posterior, ``D_KL(posterior || prior)`` (Eq. 19).
+
+    Args:
+        post: a posterior with ``names``, ``sample(n, rng)``, ``log_pdf(theta)`` (normalised)
+            and ``priors`` (name -> prior with ``log_prob``, or a number when fixed).
+        n: number of Monte Carlo draws from the posterior.
+        seed: seed of the draws.
+
+    Returns:
+        A :class:`KLEstimate` in nats with its Monte Carlo standard error.
+
+    Raises:
+        ValueError: when a draw has zero prior density (the posterior leaks out of the prior's
+            support) or the densities are not finite.
+    """
+    names = list(post.names)
+    theta = np.asarray(post.sample(n, np.random.default_rng(seed)), dtype=np.float64)
+    log_q = np.asarray(post.log_pdf(theta), dtype=np.float64).reshape(-1)
+    log_p = log_prior(post.priors, names, theta)
+    if not np.all(np.isfinite(log_p)):
+        raise ValueError("kl_divergence: some posterior draws lie outside the prior's support")
+    diff = log_q - log_p
+    if not np.all(np.isfinite(diff)):
+        raise ValueError("kl_divergence: the posterior density is not finite at some draws")
+    return KLEstimate(float(diff.mean()), float(diff.std(ddof=1) / np.sqrt(diff.size)), int(diff.size))

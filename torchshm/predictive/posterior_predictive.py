@@ -1,0 +1,168 @@
+"""Posterior predictive distribution without new model evaluations (paper, Sec. 2.4.1).
+
+The paper's extension of VBMC, step by step:
+
+1. take the model outputs that inference already computed, at every `theta_p` it evaluated,
+   for all load cases of the model (``problem.evaluations()``);
+2. fit a zero-mean GP emulator with shared hyperparameters to the outputs at the prediction
+   load cases and positions (:mod:`torchshm.predictive.emulator`);
+3. sample `theta` from the posterior, emulate the model response `eta~` at its physical part,
+   adding the emulator's own uncertainty when it is not negligible next to ``sigma_e**2``;
+4. draw `y~ ~ N(eta~, sigma_m**2 diag(eta~)**2 + K~ + sigma_e**2 I)` per load case
+   (:mod:`torchshm.predictive.draws`) and summarise the draws.
+
+:func:`exact_predictive` follows the same steps with the same random numbers but evaluates the
+model itself in step 3; it exists to check the emulator and costs `n` model evaluations.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Iterable, Literal
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from torchshm.kernels import get_kernel
+from torchshm.predictive.draws import predictive_draws
+from torchshm.predictive.emulator import fit_emulator, transform_options
+from torchshm.predictive.result import PredictiveResult
+from torchshm.predictive.selection import (
+    load_index,
+    parameter_columns,
+    position_index,
+    problem_of,
+    random_streams,
+)
+
+#: the emulator variance counts when its largest value exceeds this share of ``sigma_e**2``
+SURROGATE_VARIANCE_RATIO = 0.01
+#: largest number of stored evaluations the emulator is trained on (a random subset beyond)
+MAX_TRAINING_POINTS = 1000
+
+Positions = Literal["measured", "model"]
+
+
+def posterior_predictive(
+    post: Any,
+    loads: Iterable[float] | float,
+    n: int = 2000,
+    seed: int = 0,
+    include_surrogate_variance: bool | Literal["auto"] = "auto",
+    positions: Positions = "measured",
+    problem: Any | None = None,
+    level: float = 0.95,
+    emulator_options: dict[str, Any] | None = None,
+) -> PredictiveResult:
+    """Posterior predictive strains at load cases, with no new model evaluations.
+
+    Args:
+        post: a posterior (``names``, ``sample(n, rng)``, ``problem``), from VBMC or emcee.
+        loads: `L'` load cases to predict (front-axle positions [m]), inferred ones or not.
+        n: number of posterior draws.
+        seed: seed of the posterior draws and the noise draws (and of the training subset).
+        include_surrogate_variance: ``True`` or ``False`` to force; ``"auto"`` adds the emulator
+            variance when its largest value at the draws exceeds
+            ``SURROGATE_VARIANCE_RATIO * sigma_e**2``.
+        positions: ``"measured"`` for the problem's measured positions, ``"model"`` for all
+            positions of the forward model.
+        problem: the problem to use instead of ``post.problem`` (e.g. for a loaded posterior).
+        level: probability content of the equal-tailed interval.
+        emulator_options: keywords of :func:`~torchshm.predictive.emulator.fit_emulator`
+            (``transform``, ``kernel``, ...) overriding the defaults.
+
+    Returns:
+        A :class:`PredictiveResult` with `L' x n_x` mean and bounds and `n x L' x n_x` draws.
+
+    Raises:
+        ValueError: without a problem, without stored evaluations (e.g. an emcee run whose
+            problem kept no outputs), for an unknown load case or a bad option.
+    """
+    if include_surrogate_variance not in ("auto", True, False):
+        raise ValueError(f"include_surrogate_variance must be 'auto', True or False, got {include_surrogate_variance!r}")
+    problem = problem_of(post, problem)
+    loads_idx = load_index(problem.model, loads)
+    pos_idx, x = position_index(problem, positions)
+    loads_t = _loads_tensor(problem.model, loads_idx)
+    theta_train, outputs = _training_data(problem, loads_idx, pos_idx, seed)
+    options = {"transform": transform_options(problem.model, problem.physical_names),
+               "names": list(problem.physical_names), **(emulator_options or {})}
+    emulator = fit_emulator(theta_train, outputs, x, loads_t, **options)
+    streams = random_streams(seed)
+    theta = np.asarray(post.sample(n, streams.theta), dtype=np.float64)
+    theta_p, sigma_a, length = parameter_columns(problem, list(post.names), theta)
+    with torch.no_grad():
+        eta, var = emulator.predict(theta_p)
+    sd = var.clamp_min(0.0).sqrt()
+    max_sd = float(sd.max())
+    if include_surrogate_variance == "auto":
+        used = max_sd**2 > SURROGATE_VARIANCE_RATIO * float(problem.sigma_e) ** 2
+    else:
+        used = bool(include_surrogate_variance)
+    if used:
+        eta = eta + sd * torch.randn(eta.shape, generator=streams.emulator, dtype=torch.float64)
+    samples = _draw(problem, eta, x, sigma_a, length, streams.noise)
+    return PredictiveResult.from_draws(
+        samples, x, loads_t, level, theta, list(post.names), eta, used, max_sd, len(theta_train),
+    )
+
+
+def exact_predictive(
+    post: Any,
+    loads: Iterable[float] | float,
+    n: int = 2000,
+    seed: int = 0,
+    positions: Positions = "measured",
+    problem: Any | None = None,
+    model: Any | None = None,
+    level: float = 0.95,
+) -> PredictiveResult:
+    """Posterior predictive with the model evaluated at every draw (costs `n` model runs).
+
+    Uses the same posterior draws and noise draws as :func:`posterior_predictive` with the same
+    ``seed``, so the two differ only by the emulator error. Arguments as there; ``model``
+    defaults to ``problem.model`` (any callable ``theta_p (n x P) -> n x L_model x n_model``).
+    """
+    problem = problem_of(post, problem)
+    model = problem.model if model is None else model
+    loads_idx = load_index(problem.model, loads)
+    pos_idx, x = position_index(problem, positions)
+    streams = random_streams(seed)
+    theta = np.asarray(post.sample(n, streams.theta), dtype=np.float64)
+    theta_p, sigma_a, length = parameter_columns(problem, list(post.names), theta)
+    with torch.no_grad():
+        out = torch.as_tensor(model(torch.as_tensor(theta_p)), dtype=torch.float64)
+    eta = out[:, loads_idx][:, :, pos_idx]
+    samples = _draw(problem, eta, x, sigma_a, length, streams.noise)
+    return PredictiveResult.from_draws(
+        samples, x, _loads_tensor(problem.model, loads_idx), level, theta, list(post.names),
+        eta, False, 0.0, 0,
+    )
+
+
+def _training_data(problem: Any, loads_idx: Tensor, pos_idx: Tensor, seed: int) -> tuple[Tensor, Tensor]:
+    """Stored `theta_p` (`M x P`) and outputs (`M x L' x n_x`), at most MAX_TRAINING_POINTS."""
+    theta_p, outputs = problem.evaluations()
+    theta_p = torch.as_tensor(np.asarray(theta_p), dtype=torch.float64)
+    outputs = torch.as_tensor(np.asarray(outputs), dtype=torch.float64)
+    if theta_p.ndim != 2 or theta_p.shape[0] == 0:
+        raise ValueError(
+            "posterior_predictive: the problem holds no stored model evaluations; run inference "
+            "through a Problem (with a store for emcee runs) so that the outputs are kept"
+        )
+    if theta_p.shape[0] > MAX_TRAINING_POINTS:
+        keep = np.random.default_rng(seed).choice(theta_p.shape[0], MAX_TRAINING_POINTS, replace=False)
+        keep = torch.as_tensor(np.sort(keep))
+        theta_p, outputs = theta_p[keep], outputs[keep]
+    return theta_p, outputs[:, loads_idx][:, :, pos_idx]
+
+
+def _draw(problem: Any, eta: Tensor, x: Tensor, sigma_a: Tensor, length: Tensor | None,
+          generator: torch.Generator) -> Tensor:
+    """Predictive draws `n x L' x n_x` with the problem's kernel, ``sigma_m`` and ``sigma_e``."""
+    return predictive_draws(eta, x, get_kernel(problem.kernel), sigma_a, length,
+                            float(problem.sigma_m), float(problem.sigma_e), generator)
+
+
+def _loads_tensor(model: Any, loads_idx: Tensor) -> Tensor:
+    return torch.as_tensor(model.loads, dtype=torch.float64)[loads_idx]

@@ -1,0 +1,150 @@
+"""Evaluate a forward model on a batch of parameter vectors, through an evaluation store.
+
+The steps: canonicalise the batch; look every distinct θp up in the store; run the model for
+the missing ones (and the failed ones when asked), each result stored as soon as it exists;
+assemble the batch from stored and new results. A failing run never aborts the batch.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from torchshm.forward.protocol import model_identity, output_shape
+from torchshm.storage import runners
+from torchshm.storage.keys import theta_key, canonical_theta
+from torchshm.storage.record import Record
+from torchshm.storage.store import EvaluationStore
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass
+class EvaluationResult:
+    """Outcome of :func:`evaluate` for a batch of `N` parameter vectors.
+
+    Attributes:
+        model: identity of the evaluated model.
+        theta_p: canonical parameters `N x P` (12 significant digits).
+        outputs: strains [µε] `N x L x n`; rows of failed evaluations are NaN.
+        ok: `N` booleans, True where the evaluation succeeded.
+        errors: `N` error texts (None where ok).
+        n_new: model calls made by this call (store hits are not calls).
+        n_reused: distinct parameter vectors found finished in the store.
+        wall_time: `N` seconds each evaluation took when it ran (NaN if unknown).
+    """
+
+    model: str
+    theta_p: np.ndarray
+    outputs: np.ndarray
+    ok: np.ndarray
+    errors: list[str | None]
+    n_new: int
+    n_reused: int
+    wall_time: np.ndarray = field(repr=False)
+
+    @property
+    def n_failed(self) -> int:
+        """Number of rows whose evaluation failed."""
+        return int((~self.ok).sum())
+
+    def summary(self) -> str:
+        """One paragraph: counts of rows, ok and failed, new and reused, and each failure."""
+        n, n_distinct = len(self.ok), len({tuple(row) for row in self.theta_p.tolist()})
+        text = (
+            f"{n} evaluations of {self.model} ({n_distinct} distinct θp): "
+            f"{n - self.n_failed} ok, {self.n_failed} failed; {self.n_new} new model runs, "
+            f"{self.n_reused} reused from the store."
+        )
+        failed = [
+            f"row {i} θp={self.theta_p[i].tolist()}: {_first_line(self.errors[i])}"
+            for i in np.flatnonzero(~self.ok)
+        ]
+        return text + (" Failed: " + "; ".join(failed) + "." if failed else "")
+
+
+def evaluate(
+    model: Any,
+    theta_p: object,
+    store: EvaluationStore | str | Path | None = None,
+    n_jobs: int = 1,
+    executor: Any | None = None,
+    retry_failed: bool = False,
+) -> EvaluationResult:
+    """Evaluate a forward model at every row of ``theta_p``, reusing stored evaluations.
+
+    The model is called once per distinct θp, with a float64 tensor `P`, and must return
+    strains `L_model x n_model` (or `1 x L_model x n_model`). A call that raises, or returns a
+    wrong shape, NaN or inf, is recorded as failed with its error; the batch goes on.
+
+    Args:
+        model: a forward model (see :class:`torchshm.forward.ForwardModel`); it must be
+            picklable when ``n_jobs != 1`` or ``executor`` is given.
+        theta_p: parameters `N x P` or `P`, in the model's units.
+        store: an :class:`EvaluationStore` or a path to one; None keeps nothing.
+        n_jobs: local worker processes (joblib); -1 uses every core. Ignored with ``executor``.
+        executor: a submitit executor (see :func:`make_executor`): one job per θp.
+        retry_failed: run again the θp whose stored evaluation failed.
+
+    Returns:
+        The :class:`EvaluationResult`, rows in the order of ``theta_p``.
+
+    Raises:
+        ValueError: if ``theta_p`` is not a finite `N x P` array, the model lacks ``x`` or
+            ``loads``, or ``n_jobs`` is 0.
+    """
+    theta = canonical_theta(theta_p)
+    identity, shape = model_identity(model), output_shape(model)
+    if not isinstance(n_jobs, int) or n_jobs == 0:
+        raise ValueError(f"n_jobs must be a non-zero integer, got {n_jobs!r}")
+    if store is not None and not isinstance(store, EvaluationStore):
+        store = EvaluationStore(store)
+    keys = [theta_key(row) for row in theta]
+    distinct = list(dict.fromkeys(keys))
+    known: dict[str, Record] = {}
+    if store is not None:
+        store.ingest()
+        known = store.lookup(identity, distinct)
+    todo = [k for k in distinct if k not in known or (retry_failed and not known[k].ok)]
+    logger.info("%s: %d distinct θp, %d in the store, %d to run", identity, len(distinct),
+                len(distinct) - len(todo), len(todo))
+    if not todo:
+        new: dict[str, Record] = {}
+    elif executor is not None:
+        new = runners.run_submitit(model, identity, shape, todo, store, executor)
+    elif n_jobs != 1 and len(todo) > 1:
+        new = runners.run_joblib(model, identity, shape, todo, store, n_jobs)
+    else:
+        new = runners.run_serial(model, identity, shape, todo, store)
+    return _assemble(identity, theta, keys, {**known, **new}, shape, len(todo),
+                     len(distinct) - len(todo))
+
+
+def _assemble(
+    identity: str, theta: np.ndarray, keys: list[str], records: dict[str, Record],
+    shape: tuple[int, int], n_new: int, n_reused: int,
+) -> EvaluationResult:
+    outputs = np.full((len(keys), *shape), np.nan)
+    ok = np.zeros(len(keys), dtype=bool)
+    wall = np.full(len(keys), np.nan)
+    errors: list[str | None] = []
+    for i, key in enumerate(keys):
+        record = records[key]
+        ok[i], wall[i] = record.ok, record.wall_time
+        if record.ok:
+            outputs[i] = record.outputs
+        errors.append(record.error)
+    result = EvaluationResult(identity, theta, outputs, ok, errors, n_new, n_reused, wall)
+    if result.n_failed:
+        logger.warning("%s", result.summary())
+    return result
+
+
+def _first_line(text: str | None) -> str:
+    lines = str(text).strip().splitlines()
+    line = lines[0] if lines else ""
+    return line if len(line) <= 300 else line[:297] + "..."

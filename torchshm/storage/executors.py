@@ -1,0 +1,85 @@
+"""Executors for :func:`evaluate`: submitit for local and Slurm jobs, joblib for processes.
+
+Scheduling is not done here: submitit submits one job per θp (a Slurm job array), joblib
+spreads the runs over local processes. This module only builds them from plain settings, as
+written in ``conf/executor/*.yaml``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import submitit
+
+#: kinds accepted by :func:`make_executor`
+EXECUTOR_KINDS = ("local", "slurm", "debug")
+#: kinds accepted by :func:`evaluation_options`
+EVALUATION_KINDS = ("serial", "joblib", *EXECUTOR_KINDS)
+
+# A finite element run takes about 10 minutes; submitit's own local default is 2.
+_DEFAULTS: dict[str, dict[str, Any]] = {
+    "local": {"timeout_min": 60},
+    "slurm": {"timeout_min": 60, "cpus_per_task": 1, "mem_gb": 4.0,
+              "slurm_array_parallelism": 32},
+    "debug": {},
+}
+
+
+def make_executor(kind: str, folder: str | Path, **params: Any) -> submitit.Executor:
+    """A submitit executor that runs one forward-model evaluation per job.
+
+    Args:
+        kind: ``"slurm"`` (a Slurm cluster), ``"local"`` (one local process per job, all
+            started at once) or ``"debug"`` (in this process, when a result is asked for).
+        folder: where submitit keeps job scripts, pickles and logs (``%j`` is the job id).
+        **params: submitit parameters, e.g. ``timeout_min`` (per job, minutes),
+            ``cpus_per_task``, ``mem_gb``, ``slurm_partition``, ``slurm_array_parallelism``
+            (jobs of the array running at once), ``slurm_additional_parameters``.
+
+    Returns:
+        A ``submitit.AutoExecutor``.
+
+    Raises:
+        ValueError: for an unknown kind or parameter (the message names it).
+    """
+    if kind not in EXECUTOR_KINDS:
+        raise ValueError(f"unknown executor kind {kind!r}; expected one of {EXECUTOR_KINDS}")
+    executor = submitit.AutoExecutor(folder=str(folder), cluster=kind)
+    try:
+        executor.update_parameters(**{**_DEFAULTS[kind], **params})
+    except (NameError, AssertionError, ValueError, TypeError) as exc:
+        lines = str(exc).strip().splitlines()
+        raise ValueError(f"bad {kind} executor parameter: {lines[0] if lines else exc}") from None
+    return executor
+
+
+def evaluation_options(
+    kind: str = "serial",
+    folder: str | Path = "runs/submitit",
+    n_jobs: int = 1,
+    params: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Keyword arguments ``n_jobs`` and ``executor`` for :func:`evaluate` from plain settings.
+
+    Args:
+        kind: ``"serial"`` (in this process), ``"joblib"`` (``n_jobs`` local processes), or
+            a submitit kind of :func:`make_executor`.
+        folder: submitit's folder (submitit kinds only).
+        n_jobs: local worker processes (``"joblib"`` only).
+        params: submitit parameters (submitit kinds only).
+
+    Returns:
+        ``{"n_jobs": int, "executor": executor or None}``.
+
+    Raises:
+        ValueError: for an unknown kind or parameter.
+    """
+    if kind not in EVALUATION_KINDS:
+        raise ValueError(f"unknown executor kind {kind!r}; expected one of {EVALUATION_KINDS}")
+    if kind == "serial":
+        return {"n_jobs": 1, "executor": None}
+    if kind == "joblib":
+        return {"n_jobs": int(n_jobs), "executor": None}
+    return {"n_jobs": 1, "executor": make_executor(kind, folder, **dict(params or {}))}

@@ -1,0 +1,106 @@
+"""Fit a GP surrogate of a forward model on a design: evaluate, transform, fit, wrap."""
+
+from __future__ import annotations
+
+import time
+import warnings
+from pathlib import Path
+from typing import Any, Sequence
+
+import gpytorch
+import numpy as np
+import torch
+
+from torchshm.forward.protocol import as_tensor, model_identity
+from torchshm.storage import EvaluationStore, evaluate
+from torchshm.surrogate.surrogate import Surrogate, build_gp
+from torchshm.surrogate.transforms import ResponseTransform
+
+
+def fit_surrogate(
+    model: Any,
+    theta_p: object,
+    store: EvaluationStore | str | Path | None = None,
+    n_jobs: int = 1,
+    *,
+    kernel: str = "rbf",
+    log_inputs: tuple[int, ...] = (0,),
+    modulus: int | None = 0,
+    relative_to_modulus: tuple[int, ...] = (1,),
+    standardize: str = "output",
+    names: Sequence[str] | None = None,
+    min_noise: float = 1e-10,
+    lengthscales: tuple[float, ...] = (0.2, 0.5, 1.0),
+    max_iter: int = 200,
+) -> Surrogate:
+    """Fit a GP surrogate with shared hyperparameters to a forward model on a design.
+
+    The design is evaluated through :func:`torchshm.storage.evaluate` (through ``store`` when
+    given, so an interrupted fit resumes without repeating a finished run). Failed runs are
+    left out with a warning naming them. All `L x n` outputs share one kernel, fitted by the
+    exact marginal likelihood (see :mod:`torchshm.surrogate.gp`).
+
+    The transform defaults suit bridge 705, θp = (E_c [GPa], log10_K_r): the GP sees
+    log10 E_c and log10(K_r / E_c) and predicts E_c · ε. For a model without that
+    structure pass ``log_inputs=(), modulus=None, relative_to_modulus=()``.
+
+    Args:
+        model: forward model, ``model(theta_p) -> ... x L x n`` with ``x`` and ``loads``.
+        theta_p: `N x P` design [model units], e.g. :func:`paper_design`.
+        store: an evaluation store or its path; None keeps nothing.
+        n_jobs: local worker processes for the model runs (-1: every core).
+        kernel: "rbf" or "matern52" (ARD, with an output scale).
+        log_inputs: columns of θp the GP sees as log10.
+        modulus: column of θp that is an elastic modulus (strains ∝ 1 / modulus), or None.
+        relative_to_modulus: columns holding log10 of a stiffness that does not scale with
+            the modulus; the GP sees them minus log10 of the modulus.
+        standardize: "output" (a scale per output) or "global" (one scale).
+        names: parameter names; default ``model.names`` or ``theta_p[i]``.
+        min_noise: lower bound of the GP noise variance (standardised units).
+        lengthscales: initial lengthscales of the marginal-likelihood restarts.
+        max_iter: L-BFGS iterations per restart.
+
+    Returns:
+        The fitted :class:`Surrogate`.
+
+    Raises:
+        ValueError: if fewer than P + 2 design points evaluate successfully, or on a bad
+            transform option.
+    """
+    start = time.perf_counter()
+    theta, outputs = _evaluate_design(model, theta_p, store, n_jobs)
+    transform = ResponseTransform.fit(
+        theta, outputs.reshape(outputs.shape[0], -1), log_inputs=log_inputs, modulus=modulus,
+        relative_to_modulus=relative_to_modulus, standardize=standardize)
+    gp = build_gp(transform, theta, outputs, kernel, min_noise)
+    log_ml = gp.fit(lengthscales=lengthscales, max_iter=max_iter)
+    metadata = {
+        "log_marginal_likelihood": log_ml, "standardize": standardize,
+        "fit_seconds": time.perf_counter() - start,
+        "lengthscale": gp.covar_module.base_kernel.lengthscale.reshape(-1).tolist(),
+        "outputscale": float(gp.covar_module.outputscale),
+        "noise": float(gp.likelihood.noise), "torch": str(torch.__version__),
+        "gpytorch": str(gpytorch.__version__),
+    }
+    default = getattr(model, "names", None) or [f"theta_p[{i}]" for i in range(theta.shape[1])]
+    return Surrogate(gp, transform, as_tensor(model.x), as_tensor(model.loads),
+                     tuple(names or default), model_identity(model), theta, outputs, metadata)
+
+
+def _evaluate_design(model: Any, theta_p: object, store: EvaluationStore | str | Path | None,
+                     n_jobs: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Successful, distinct design rows `N x P` and their strains `N x L x n` [µε]."""
+    result = evaluate(model, theta_p, store=store, n_jobs=n_jobs)
+    if not result.ok.all():
+        failed = [f"row {i} θp={result.theta_p[i].tolist()}: {result.errors[i]}"
+                  for i in np.flatnonzero(~result.ok)]
+        warnings.warn(f"fit_surrogate: {len(failed)} of {len(result.ok)} design evaluations "
+                      f"failed and are left out: " + "; ".join(failed), stacklevel=3)
+    _, index = np.unique(result.theta_p[result.ok], axis=0, return_index=True)
+    index = np.sort(index)
+    theta, outputs = result.theta_p[result.ok][index], result.outputs[result.ok][index]
+    if theta.shape[0] < theta.shape[1] + 2:
+        raise ValueError(f"fit_surrogate: only {theta.shape[0]} distinct successful design "
+                         f"evaluations; at least {theta.shape[1] + 2} are needed")
+    return torch.as_tensor(theta, dtype=torch.float64), torch.as_tensor(outputs,
+                                                                        dtype=torch.float64)

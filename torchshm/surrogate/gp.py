@@ -1,0 +1,144 @@
+"""A GPyTorch GP whose many outputs share one kernel, fitted by its exact marginal likelihood.
+
+Every output j (a load case and sensor) is an independent draw y_j ~ GP(0, k) of the same
+zero-mean prior with the same kernel k and noise σ² (the paper's "shared hyperparameters").
+With the `N x N` covariance ``C = K + σ² I`` of the design, the exact log marginal likelihood
+of all `m` outputs is
+
+    Σ_j log N(y_j; 0, C) = -½ tr(Yᵀ C⁻¹ Y) - (m / 2) log|C| - (m N / 2) log 2π,
+
+which needs one Cholesky factor of C (O(N³)) and triangular solves with m right-hand sides
+(O(N² m)); nothing grows with (m N)³. The model is a :class:`gpytorch.models.ExactGP` whose
+training targets are the `m x N` batch of outputs; :class:`gpytorch.mlls.ExactMarginalLogLikelihood`
+returns the `m` per-output terms, evaluated with ``fast_computations(log_prob=False)`` so that
+the one Cholesky factor is broadcast over the outputs instead of being repeated for each.
+
+The predictive mean of every output and the (shared) predictive variance of the latent
+function follow from the same factor: ``mean = K_*ᵀ C⁻¹ Y``, ``var = k_** - K_*ᵀ C⁻¹ K_*``,
+the equations GPyTorch's exact prediction strategy uses for a single output.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gpytorch
+import torch
+from torch import Tensor
+
+#: names of the kernels the surrogate offers
+SURROGATE_KERNELS = ("rbf", "matern52")
+
+
+class SharedKernelGP(gpytorch.models.ExactGP):
+    """Zero-mean exact GP with `m` outputs that share one ARD kernel and one noise.
+
+    Args:
+        inputs: `N x d` training inputs (unit box).
+        targets: `m x N` training targets, one row per output (standardised).
+        kernel: "rbf" (squared exponential) or "matern52", with a lengthscale per input.
+        min_noise: lower bound of the noise variance (targets are deterministic model runs).
+    """
+
+    def __init__(self, inputs: Tensor, targets: Tensor, kernel: str = "rbf",
+                 min_noise: float = 1e-10) -> None:
+        if kernel not in SURROGATE_KERNELS:
+            raise ValueError(f"kernel must be one of {SURROGATE_KERNELS}, got {kernel!r}")
+        likelihood = gpytorch.likelihoods.GaussianLikelihood(
+            noise_constraint=gpytorch.constraints.GreaterThan(min_noise))
+        super().__init__(inputs, targets, likelihood)
+        d = inputs.shape[-1]
+        base = (gpytorch.kernels.RBFKernel(ard_num_dims=d) if kernel == "rbf"
+                else gpytorch.kernels.MaternKernel(nu=2.5, ard_num_dims=d))
+        self.mean_module = gpytorch.means.ZeroMean()
+        self.covar_module = gpytorch.kernels.ScaleKernel(base)
+        self.kernel, self.min_noise = kernel, min_noise
+        self._factor: Tensor | None = None
+        self._weights: Tensor | None = None
+        self.to(torch.float64)
+
+    def forward(self, x: Tensor) -> gpytorch.distributions.MultivariateNormal:
+        """Prior of the latent function at `T x d` inputs."""
+        return gpytorch.distributions.MultivariateNormal(self.mean_module(x), self.covar_module(x))
+
+    def log_marginal_likelihood(self) -> Tensor:
+        """Exact log marginal likelihood per output and training point, `m` (GPyTorch MLL)."""
+        mll = gpytorch.mlls.ExactMarginalLogLikelihood(self.likelihood, self)
+        with gpytorch.settings.fast_computations(log_prob=False):
+            return mll(self(*self.train_inputs), self.train_targets)
+
+    def fit(self, lengthscales: tuple[float, ...] = (0.2, 0.5, 1.0), max_iter: int = 200) -> float:
+        """Maximise the marginal likelihood by L-BFGS from several initial lengthscales.
+
+        Args:
+            lengthscales: initial lengthscale (unit-box units) of each restart.
+            max_iter: L-BFGS iterations per restart.
+
+        Returns:
+            The best mean log marginal likelihood per output and training point.
+        """
+        best, best_state = -math.inf, None
+        for start in lengthscales:
+            self._initialise(start)
+            value = self._optimise(max_iter)
+            if value > best:
+                best, best_state = value, {k: v.clone() for k, v in self.state_dict().items()}
+        if best_state is None:
+            raise RuntimeError("surrogate GP: every marginal-likelihood optimisation failed")
+        self.load_state_dict(best_state)
+        self.freeze()
+        return best
+
+    def _initialise(self, lengthscale: float) -> None:
+        self.covar_module.base_kernel.lengthscale = torch.full_like(
+            self.covar_module.base_kernel.lengthscale, lengthscale)
+        self.covar_module.outputscale = 1.0
+        self.likelihood.noise = max(1e-6, 10 * self.min_noise)
+
+    def _optimise(self, max_iter: int) -> float:
+        self.train()
+        for p in self.parameters():
+            p.requires_grad_(True)
+        optimiser = torch.optim.LBFGS(self.parameters(), lr=1.0, max_iter=max_iter,
+                                      line_search_fn="strong_wolfe")
+
+        def closure() -> Tensor:
+            optimiser.zero_grad()
+            loss = -self.log_marginal_likelihood().mean()
+            loss.backward()
+            return loss
+
+        try:
+            optimiser.step(closure)
+            with torch.no_grad():
+                value = float(self.log_marginal_likelihood().mean())
+        except (RuntimeError, ValueError):  # a failed Cholesky factor or a NaN step
+            return -math.inf
+        return value if math.isfinite(value) else -math.inf
+
+    def freeze(self) -> None:
+        """Fix the hyperparameters and cache the Cholesky factor and the weights C⁻¹ Y."""
+        self.eval()
+        for p in self.parameters():
+            p.requires_grad_(False)
+        inputs = self.train_inputs[0]
+        covar = self.likelihood(self.forward(inputs)).lazy_covariance_matrix
+        self._factor = covar.cholesky().to_dense()
+        self._weights = torch.cholesky_solve(self.train_targets.mT, self._factor)
+
+    def predict(self, x: Tensor, variance: bool = True) -> tuple[Tensor, Tensor | None]:
+        """Posterior of the latent functions at `T x d` inputs.
+
+        Returns:
+            The mean `T x m` of every output and, when asked, the latent variance `T x 1`
+            shared by all outputs (standardised units).
+        """
+        if self._factor is None or self._weights is None:
+            self.freeze()
+        cross = self.covar_module(x, self.train_inputs[0]).to_dense()
+        mean = cross @ self._weights
+        if not variance:
+            return mean, None
+        solved = torch.linalg.solve_triangular(self._factor, cross.mT, upper=False)
+        prior = self.covar_module(x, diag=True)
+        return mean, (prior - solved.square().sum(dim=-2)).clamp_min(0.0).unsqueeze(-1)
