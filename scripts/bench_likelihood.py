@@ -65,7 +65,9 @@ def median_seconds(fn: Callable[[], object], repeats: int) -> tuple[float, objec
     return statistics.median(times), result
 
 
-def bench_size(label: str, n_loads: int, args: argparse.Namespace) -> list[tuple[str, str, float, float, float]]:
+def bench_size(
+    label: str, n_loads: int, args: argparse.Namespace
+) -> list[tuple[str, str, float, float, float]]:
     """Rows ``(size, method, seconds per call, seconds per vector, value)`` for one data size."""
     rng = np.random.default_rng(args.seed)
     x = np.round(35.0 + 0.1 * np.arange(351), 10)
@@ -75,7 +77,9 @@ def bench_size(label: str, n_loads: int, args: argparse.Namespace) -> list[tuple
     size = f"{label} ({n_loads} x 351 = {n_loads * 351} points)"
 
     def ours(e: torch.Tensor, s: object, ell: object) -> torch.Tensor:
-        return torchshm.log_likelihood(yt, e, xt, "matern32", s, ell, sigma_m=SIGMA_M, sigma_e=SIGMA_E)
+        return torchshm.log_likelihood(
+            yt, e, xt, "matern32", s, ell, sigma_m=SIGMA_M, sigma_e=SIGMA_E
+        )
 
     rows = []
     t, v = median_seconds(lambda: naive_scipy(y, eta, x), args.slow_repeats)
@@ -88,7 +92,9 @@ def bench_size(label: str, n_loads: int, args: argparse.Namespace) -> list[tuple
         batch = etat.expand(BATCH, -1, -1)
         s, ell = torch.full((BATCH,), SIGMA_A), torch.full((BATCH,), LENGTH)
         t, v = median_seconds(lambda: ours(batch, s, ell), max(3, args.repeats // 4))
-        rows.append((size, f"(d) `torchshm.log_likelihood`, batch of {BATCH}", t, t / BATCH, float(v[0])))
+        rows.append(
+            (size, f"(d) `torchshm.log_likelihood`, batch of {BATCH}", t, t / BATCH, float(v[0]))
+        )
     return rows
 
 
@@ -99,10 +105,14 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     rows = bench_size("C1", 11, args) + bench_size("B", 1, args)
-    print(f"torch {torch.__version__} ({torch.get_num_threads()} threads), numpy {np.__version__}, "
-          f"{platform.processor() or platform.machine()}; median of {args.repeats} calls "
-          f"({args.slow_repeats} for (a) and (b)) after one warm-up.\n")
-    print("| size | method | median time [ms] | per parameter vector [ms] | (a) ÷ this, per vector |")
+    print(
+        f"torch {torch.__version__} ({torch.get_num_threads()} threads), numpy {np.__version__}, "
+        f"{platform.processor() or platform.machine()}; median of {args.repeats} calls "
+        f"({args.slow_repeats} for (a) and (b)) after one warm-up.\n"
+    )
+    print(
+        "| size | method | median time [ms] | per parameter vector [ms] | (a) ÷ this, per vector |"
+    )
     print("| --- | --- | ---: | ---: | ---: |")
     naive = {}
     for size, method, t, per, _ in rows:

@@ -22,7 +22,10 @@ import time
 
 
 def strain_field(theta: list[float], x: list[float], loads: list[float]) -> list[list[float]]:
-    """Analytic strains [µε] `L x n`: ``1000 sin(x - load/10) / E_c + log10_K_r x / (1 + load)``."""
+    """Analytic strains [µε] `L x n`.
+
+    ``1000 sin(x - load / 10) / E_c + log10_K_r x / (1 + load)``, x and load in m.
+    """
     e_c, log_k = theta
     return [[1e3 * math.sin(xi - load / 10.0) / e_c + log_k * xi / (1.0 + load) for xi in x]
             for load in loads]

@@ -57,7 +57,8 @@ def test_npz_errors(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="'x' differs from the model's x"):
         read_strains(path, X, LOADS)
     np.savez(path, strain=STRAIN.T)
-    with pytest.raises(ValueError, match=r"'strain' has shape \(4, 2\), expected \(L, n\) = \(2, 4\)"):
+    expected = r"'strain' has shape \(4, 2\), expected \(L, n\) = \(2, 4\)"
+    with pytest.raises(ValueError, match=expected):
         read_strains(path, X, LOADS)
     with pytest.raises(ValueError, match="no strain file missing.npz was written"):
         read_strains(tmp_path / "missing.npz", X, LOADS)

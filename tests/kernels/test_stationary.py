@@ -66,7 +66,9 @@ class KernelChecks:
         x = torch.as_tensor(rng.uniform(0, 10, 12))
         sigma_a = torch.tensor([0.3, 2.0])
         full = self.kernel(x, sigma_a=sigma_a, length=torch.tensor([0.5, 4.0]))
-        torch.testing.assert_close(self.kernel.diag(x, sigma_a=sigma_a), full.diagonal(dim1=-2, dim2=-1))
+        torch.testing.assert_close(
+            self.kernel.diag(x, sigma_a=sigma_a), full.diagonal(dim1=-2, dim2=-1)
+        )
 
     def test_rectangular_cross_covariance(self, rng: np.random.Generator) -> None:
         x1, x2 = rng.uniform(0, 5, 6), rng.uniform(0, 5, 4)
@@ -102,7 +104,9 @@ class TestIndependent(KernelChecks):
     def test_equals_scaled_identity(self, rng: np.random.Generator) -> None:
         x = torch.as_tensor(np.sort(rng.uniform(0, 10, 30)))
         k = self.kernel(x, sigma_a=torch.tensor([0.5, 1.5]))
-        torch.testing.assert_close(k, torch.tensor([0.25, 2.25])[:, None, None] * torch.eye(30), rtol=0, atol=0)
+        torch.testing.assert_close(
+            k, torch.tensor([0.25, 2.25])[:, None, None] * torch.eye(30), rtol=0, atol=0
+        )
 
     def test_needs_no_length(self) -> None:
         assert not self.kernel.has_length and self.kernel.is_diagonal
@@ -131,7 +135,11 @@ class TestMatern52(KernelChecks):
 
     @staticmethod
     def formula(d: np.ndarray, s: float, ell: float) -> np.ndarray:
-        return s**2 * (1 + np.sqrt(5) * d / ell + 5 * d**2 / (3 * ell**2)) * np.exp(-np.sqrt(5) * d / ell)
+        return (
+            s**2
+            * (1 + np.sqrt(5) * d / ell + 5 * d**2 / (3 * ell**2))
+            * np.exp(-np.sqrt(5) * d / ell)
+        )
 
 
 class TestSquaredExponential(KernelChecks):
@@ -153,7 +161,9 @@ def test_every_kernel_has_a_checked_class() -> None:
 
 
 def test_unknown_kernel_is_named_with_the_valid_ones() -> None:
-    with pytest.raises(ValueError, match=r"unknown kernel 'matern12'.*independent.*squared_exponential"):
+    with pytest.raises(
+        ValueError, match=r"unknown kernel 'matern12'.*independent.*squared_exponential"
+    ):
         get_kernel("matern12")
 
 

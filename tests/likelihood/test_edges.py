@@ -27,7 +27,12 @@ def corners_and_edge_midpoints(bounds: np.ndarray) -> np.ndarray:
 
 def box_priors() -> dict[str, Uniform]:
     """Uniform priors on Table 4's hard bounds: the density is positive on the closed box."""
-    return {"E_c": Uniform(10, 100), "log10_K_r": Uniform(0, 12), "sigma_a": Uniform(0, 5), "length": Uniform(0, 10)}
+    return {
+        "E_c": Uniform(10, 100),
+        "log10_K_r": Uniform(0, 12),
+        "sigma_a": Uniform(0, 5),
+        "length": Uniform(0, 10),
+    }
 
 
 @pytest.mark.parametrize("kernel", KERNELS)

@@ -13,13 +13,13 @@ from torchshm.likelihood import gaussian, log_likelihood
 from torchshm.likelihood.cholesky import cholesky_with_jitter
 
 FORMULAS = {
-    "independent": lambda d, s, l: s**2 * (d == 0),
-    "exponential": lambda d, s, l: s**2 * np.exp(-d / l),
-    "matern32": lambda d, s, l: s**2 * (1 + np.sqrt(3) * d / l) * np.exp(-np.sqrt(3) * d / l),
-    "matern52": lambda d, s, l: s**2
-    * (1 + np.sqrt(5) * d / l + 5 * d**2 / (3 * l**2))
-    * np.exp(-np.sqrt(5) * d / l),
-    "squared_exponential": lambda d, s, l: s**2 * np.exp(-((d / l) ** 2)),
+    "independent": lambda d, s, ell: s**2 * (d == 0),
+    "exponential": lambda d, s, ell: s**2 * np.exp(-d / ell),
+    "matern32": lambda d, s, ell: s**2 * (1 + np.sqrt(3) * d / ell) * np.exp(-np.sqrt(3) * d / ell),
+    "matern52": lambda d, s, ell: (
+        s**2 * (1 + np.sqrt(5) * d / ell + 5 * d**2 / (3 * ell**2)) * np.exp(-np.sqrt(5) * d / ell)
+    ),
+    "squared_exponential": lambda d, s, ell: s**2 * np.exp(-((d / ell) ** 2)),
 }
 
 
@@ -37,15 +37,27 @@ def data(rng: np.random.Generator) -> dict[str, np.ndarray]:
     x = np.sort(rng.uniform(35.0, 45.0, 40))  # irregular positions
     eta = rng.normal(0.0, 20.0, (4, 3, 40))
     y = eta[0] + rng.normal(0.0, 1.0, (3, 40))
-    return {"x": x, "eta": eta, "y": y, "s": rng.uniform(0.2, 2.0, 4), "ell": rng.uniform(0.2, 5.0, 4)}
+    return {
+        "x": x,
+        "eta": eta,
+        "y": y,
+        "s": rng.uniform(0.2, 2.0, 4),
+        "ell": rng.uniform(0.2, 5.0, 4),
+    }
 
 
 @pytest.mark.parametrize("sigma_m", [0.05, 0.0])
 @pytest.mark.parametrize("kernel", KERNELS)
 def test_matches_dense_scipy(kernel: str, sigma_m: float, data: dict[str, np.ndarray]) -> None:
     got = log_likelihood(
-        data["y"], torch.as_tensor(data["eta"]), data["x"], kernel,
-        torch.as_tensor(data["s"]), torch.as_tensor(data["ell"]), sigma_m=sigma_m, sigma_e=0.1,
+        data["y"],
+        torch.as_tensor(data["eta"]),
+        data["x"],
+        kernel,
+        torch.as_tensor(data["s"]),
+        torch.as_tensor(data["ell"]),
+        sigma_m=sigma_m,
+        sigma_e=0.1,
     )
     assert got.shape == (4,) and got.dtype == torch.float64
     for b in range(4):
@@ -58,9 +70,13 @@ def test_matches_dense_scipy(kernel: str, sigma_m: float, data: dict[str, np.nda
 def test_numpy_inputs_and_parameter_broadcasting(data: dict[str, np.ndarray]) -> None:
     """One prediction `L x n` against a batch of kernel parameters `2 x 3`."""
     s = data["s"][:3]
-    got = log_likelihood(data["y"], data["eta"][1], data["x"], "matern52", s[None, :], np.array([[0.7], [2.0]]))
+    got = log_likelihood(
+        data["y"], data["eta"][1], data["x"], "matern52", s[None, :], np.array([[0.7], [2.0]])
+    )
     assert isinstance(got, torch.Tensor) and got.shape == (2, 3)
-    want = dense_log_likelihood(data["y"], data["eta"][1], data["x"], "matern52", s[2], 2.0, 0.05, 0.1)
+    want = dense_log_likelihood(
+        data["y"], data["eta"][1], data["x"], "matern52", s[2], 2.0, 0.05, 0.1
+    )
     assert float(got[1, 2]) == pytest.approx(want, rel=1e-10)
 
 
@@ -69,7 +85,9 @@ def test_length_is_ignored_by_the_independent_kernel(data: dict[str, np.ndarray]
     torch.testing.assert_close(log_likelihood(*args, None), log_likelihood(*args, data["ell"][:2]))
 
 
-def test_chunked_batch_equals_one_chunk(data: dict[str, np.ndarray], monkeypatch: pytest.MonkeyPatch) -> None:
+def test_chunked_batch_equals_one_chunk(
+    data: dict[str, np.ndarray], monkeypatch: pytest.MonkeyPatch
+) -> None:
     args = (data["y"], data["eta"], data["x"], "exponential", data["s"], data["ell"])
     whole = log_likelihood(*args)
     monkeypatch.setattr(gaussian, "CHUNK_BYTES", 1)  # one parameter vector per chunk
@@ -118,20 +136,25 @@ def test_zero_length_equals_independent(data: dict[str, np.ndarray]) -> None:
     args = (data["y"], data["eta"], data["x"])
     want = log_likelihood(*args, "independent", data["s"], None)
     for kernel in KERNELS[1:]:
-        torch.testing.assert_close(log_likelihood(*args, kernel, data["s"], 0.0), want, rtol=1e-12, atol=0)
+        torch.testing.assert_close(
+            log_likelihood(*args, kernel, data["s"], 0.0), want, rtol=1e-12, atol=0
+        )
 
 
 def test_jitter_touches_only_the_failed_matrices() -> None:
     x = torch.arange(60) * 0.1
-    k = torchshm.kernels.get_kernel("squared_exponential")(x, sigma_a=torch.tensor([1.0, 1.0]),
-                                                           length=torch.tensor([0.05, 5.0]))
+    k = torchshm.kernels.get_kernel("squared_exponential")(
+        x, sigma_a=torch.tensor([1.0, 1.0]), length=torch.tensor([0.05, 5.0])
+    )
     plain, info = torch.linalg.cholesky_ex(k)
     assert info.tolist()[0] == 0 and info.tolist()[1] != 0  # the smooth one is singular
     chol, failed = cholesky_with_jitter(k)
     assert not failed.any()
     assert torch.equal(chol[0], plain[0])  # untouched, bit for bit
     rebuilt = chol[1] @ chol[1].mT
-    assert torch.allclose(rebuilt, k[1], atol=1e-4) and not torch.allclose(rebuilt, k[1], atol=0, rtol=0)
+    assert torch.allclose(rebuilt, k[1], atol=1e-4) and not torch.allclose(
+        rebuilt, k[1], atol=0, rtol=0
+    )
 
 
 def test_singular_covariance_gives_finite_value_and_zero_covariance_gives_minus_inf() -> None:
@@ -165,7 +188,13 @@ def test_nan_prediction_gives_nan() -> None:
     ],
 )
 def test_bad_input_is_named(kwargs: dict[str, object], message: str) -> None:
-    args = {"y": np.zeros((2, 5)), "eta": np.zeros((2, 5)), "x": np.arange(5.0), "kernel": "matern32",
-            "sigma_a": 1.0, "length": 1.0}
+    args = {
+        "y": np.zeros((2, 5)),
+        "eta": np.zeros((2, 5)),
+        "x": np.arange(5.0),
+        "kernel": "matern32",
+        "sigma_a": 1.0,
+        "length": 1.0,
+    }
     with pytest.raises(ValueError, match=message):
         log_likelihood(**{**args, **kwargs})

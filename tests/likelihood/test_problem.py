@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
-from conftest import LinearModel, synthetic
+from likelihood_models import LinearModel, synthetic
 
 import torchshm
 from torchshm import Gamma, Problem, Uniform, log_likelihood
@@ -21,7 +21,12 @@ def test_names_and_bounds(kernel: str, small) -> None:
     assert problem.names == want
     assert problem.physical_names == ["E_c", "log10_K_r"]
     assert list(problem.priors) == want
-    table4 = {"E_c": (10, 100, 20, 60), "log10_K_r": (0, 12, 1, 11), "sigma_a": (0, 5, 0.2, 2), "length": (0, 10, 0.2, 5)}
+    table4 = {
+        "E_c": (10, 100, 20, 60),
+        "log10_K_r": (0, 12, 1, 11),
+        "sigma_a": (0, 5, 0.2, 2),
+        "length": (0, 10, 0.2, 5),
+    }
     np.testing.assert_array_equal(problem.hard_bounds, [table4[n][:2] for n in want])
     np.testing.assert_array_equal(problem.plausible_bounds, [table4[n][2:] for n in want])
     draws = problem.sample_prior(500, np.random.default_rng(1))
@@ -33,9 +38,13 @@ def test_log_joint_is_log_prior_plus_log_likelihood(small) -> None:
     model, meas = small
     problem = Problem(model, meas, kernel="matern52")
     priors = torchshm.paper_priors()
-    want_prior = sum(float(priors[n].log_prob(v)) for n, v in zip(problem.names, THETA))
+    want_prior = sum(
+        float(priors[n].log_prob(v)) for n, v in zip(problem.names, THETA, strict=True)
+    )
     assert problem.log_prior(THETA) == pytest.approx(want_prior, rel=1e-14)
-    eta = model(torch.as_tensor(THETA[:2]))[[4, 1, 7]][:, ::2]  # loads 39.8, 16.9, 62.8; every other x
+    eta = model(torch.as_tensor(THETA[:2]))[[4, 1, 7]][
+        :, ::2
+    ]  # loads 39.8, 16.9, 62.8; every other x
     want = log_likelihood(meas.y, eta, meas.x, "matern52", 0.9, 2.0, sigma_m=0.05, sigma_e=0.1)
     assert problem.log_likelihood(THETA) == pytest.approx(float(want), rel=1e-13)
     assert problem.log_joint(THETA) == pytest.approx(float(want) + want_prior, rel=1e-13)
@@ -57,7 +66,9 @@ def test_numpy_in_numpy_out_torch_in_torch_out(small) -> None:
 def test_each_distinct_vector_is_evaluated_once(small) -> None:
     model, meas = small
     problem = Problem(model, meas)
-    theta = np.array([THETA, THETA * [1, 1, 1.2, 0.5], THETA * [1 + 1e-14, 1, 1, 1], THETA * [1.1, 1, 1, 1]])
+    theta = np.array(
+        [THETA, THETA * [1, 1, 1.2, 0.5], THETA * [1 + 1e-14, 1, 1, 1], THETA * [1.1, 1, 1, 1]]
+    )
     problem.log_joint(theta)
     assert problem.n_model_evaluations == 2 and len(model.calls) == 2
     problem.log_joint(theta[::-1])  # in-process cache: nothing new
@@ -86,8 +97,16 @@ def test_only_measured_loads_and_positions_are_used(small) -> None:
 def test_outside_support_is_minus_inf_without_a_model_call(small) -> None:
     model, meas = small
     problem = Problem(model, meas)
-    bad = np.array([[5.0, 11.5, 0.9, 2.0], [33.0, 12.5, 0.9, 2.0], [33.0, 11.5, -0.1, 2.0],
-                    [33.0, 11.5, 0.9, 10.5], [np.nan, 11.5, 0.9, 2.0], [33.0, np.inf, 0.9, 2.0]])
+    bad = np.array(
+        [
+            [5.0, 11.5, 0.9, 2.0],
+            [33.0, 12.5, 0.9, 2.0],
+            [33.0, 11.5, -0.1, 2.0],
+            [33.0, 11.5, 0.9, 10.5],
+            [np.nan, 11.5, 0.9, 2.0],
+            [33.0, np.inf, 0.9, 2.0],
+        ]
+    )
     for fn in (problem.log_joint, problem.log_prior, problem.log_likelihood):
         out = fn(bad)
         assert np.all(out == -np.inf)
@@ -119,18 +138,29 @@ def test_gradient_flows_through_the_model(small) -> None:
 
 def test_fixed_parameters_leave_names(small) -> None:
     model, meas = small
-    priors = {"E_c": 35.0, "log10_K_r": Uniform(0, 12), "sigma_a": Gamma(2, 2, bounds=(0, 5)), "length": 1.5}
+    priors = {
+        "E_c": 35.0,
+        "log10_K_r": Uniform(0, 12),
+        "sigma_a": Gamma(2, 2, bounds=(0, 5)),
+        "length": 1.5,
+    }
     problem = Problem(model, meas, priors=priors)
     assert problem.names == ["log10_K_r", "sigma_a"]
     assert problem.physical_names == ["E_c", "log10_K_r"]
     full = Problem(model, meas, priors={**priors, "E_c": Uniform(10, 100), "length": Gamma(3, 1)})
-    assert problem.log_likelihood([11.0, 0.7]) == pytest.approx(float(full.log_likelihood([35.0, 11.0, 0.7, 1.5])))
+    assert problem.log_likelihood([11.0, 0.7]) == pytest.approx(
+        float(full.log_likelihood([35.0, 11.0, 0.7, 1.5]))
+    )
     assert model.calls[0] == [35.0, 11.0]
 
 
 def test_physical_parameters_follow_the_model_order(small) -> None:
     model, meas = small
-    priors = {"sigma_a": Gamma(2, 2, bounds=(0, 5)), "log10_K_r": Uniform(0, 12), "E_c": Uniform(10, 100)}
+    priors = {
+        "sigma_a": Gamma(2, 2, bounds=(0, 5)),
+        "log10_K_r": Uniform(0, 12),
+        "E_c": Uniform(10, 100),
+    }
     problem = Problem(model, meas, kernel="independent", priors=priors)
     assert problem.names == ["E_c", "log10_K_r", "sigma_a"]
     problem.log_joint([33.0, 11.5, 0.9])
@@ -141,7 +171,11 @@ def test_dict_order_without_model_names(small) -> None:
     model, meas = small
     model.names = None  # a model that does not declare its parameters
     priors = {"E_c": Uniform(10, 100), "K": Uniform(0, 12), "sigma_a": Gamma(2, 2, bounds=(0, 5))}
-    assert Problem(model, meas, kernel="independent", priors=priors).names == ["E_c", "K", "sigma_a"]
+    assert Problem(model, meas, kernel="independent", priors=priors).names == [
+        "E_c",
+        "K",
+        "sigma_a",
+    ]
 
 
 def test_sigma_e_defaults_to_the_measurements(small) -> None:
@@ -157,7 +191,10 @@ def test_sigma_e_defaults_to_the_measurements(small) -> None:
         ({"kernel": "matern12"}, "unknown kernel 'matern12'"),
         ({"sigma_m": -0.05}, "sigma_m"),
         ({"sigma_e": -0.1}, "sigma_e"),
-        ({"priors": {**torchshm.paper_priors(), "E_s": Uniform(0, 1)}}, r"unknown parameter\(s\) \['E_s'\]"),
+        (
+            {"priors": {**torchshm.paper_priors(), "E_s": Uniform(0, 1)}},
+            r"unknown parameter\(s\) \['E_s'\]",
+        ),
         ({"priors": {"E_c": Uniform(10, 100), "sigma_a": 1.0, "length": 1.0}}, "log10_K_r"),
         ({"priors": {"E_c": Uniform(10, 100), "log10_K_r": 11.0, "length": 1.0}}, "sigma_a"),
         ({"priors": {"E_c": Uniform(10, 100), "log10_K_r": 11.0, "sigma_a": 1.0}}, "length"),
@@ -173,7 +210,9 @@ def test_bad_input_is_named(change: dict[str, object], message: str, small) -> N
 def test_unknown_loads_and_positions_are_named(small) -> None:
     model, meas = small
     with pytest.raises(ValueError, match=r"load cases not produced by the model.*: 40\.5"):
-        Problem(model, synthetic(LinearModel(model.x.numpy(), loads=(39.8, 40.5)), (39.8, 40.5), meas.x))
+        Problem(
+            model, synthetic(LinearModel(model.x.numpy(), loads=(39.8, 40.5)), (39.8, 40.5), meas.x)
+        )
     off_grid = np.round(meas.x + 0.02, 10)
     other = LinearModel(off_grid)
     with pytest.raises(ValueError, match=r"positions not produced by the model.*35\.02"):

@@ -6,13 +6,19 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from conftest import LinearModel
+from likelihood_models import LinearModel
 
 from torchshm import Problem
 from torchshm.storage import EvaluationStore
 
-THETA = np.array([[33.0, 11.5, 0.9, 2.0], [33.0, 11.5, 1.2, 0.5], [40.0, 10.0, 0.9, 2.0],
-                  [40.0, 10.0 * (1 + 1e-14), 0.9, 2.0]])
+THETA = np.array(
+    [
+        [33.0, 11.5, 0.9, 2.0],
+        [33.0, 11.5, 1.2, 0.5],
+        [40.0, 10.0, 0.9, 2.0],
+        [40.0, 10.0 * (1 + 1e-14), 0.9, 2.0],
+    ]
+)
 
 
 def test_store_persists_and_is_reused(small, tmp_path: Path) -> None:

@@ -75,7 +75,9 @@ def test_torch_in_torch_out_with_gradient() -> None:
     lp = Gamma(3.0, 1.0, bounds=(0.0, 10.0)).log_prob(x)
     assert isinstance(lp, torch.Tensor) and lp[2:].tolist() == [lp[2].item(), -np.inf]
     lp[:3].sum().backward()
-    np.testing.assert_allclose(x.grad.numpy(), [2 / 0.5 - 1, 2 / 1.0 - 1, 2 / 7.0 - 1, 0.0], rtol=1e-14)
+    np.testing.assert_allclose(
+        x.grad.numpy(), [2 / 0.5 - 1, 2 / 1.0 - 1, 2 / 7.0 - 1, 0.0], rtol=1e-14
+    )
 
 
 def test_outside_and_nan_are_minus_inf() -> None:
@@ -99,7 +101,10 @@ def test_explicit_plausible_bounds_are_kept() -> None:
     [
         (lambda: Uniform(5.0, 1.0), r"Uniform\(a, b\).*lo < hi"),
         (lambda: Uniform(1.0, 1.0), r"Uniform\(a, b\).*lo < hi"),
-        (lambda: Uniform(0.0, 1.0, plausible=(0.5, 2.0)), "plausible bounds .* outside the hard bounds"),
+        (
+            lambda: Uniform(0.0, 1.0, plausible=(0.5, 2.0)),
+            "plausible bounds .* outside the hard bounds",
+        ),
         (lambda: Uniform(0.0, 1.0, plausible=(0.8, 0.2)), "plausible bounds must satisfy lo < hi"),
         (lambda: Gamma(0.0, 1.0), "alpha"),
         (lambda: Gamma(2.0, -1.0), "beta"),

@@ -44,7 +44,8 @@ class GridModel:
     def _log(self, what: str, theta: Tensor) -> None:
         if self.counter is not None:
             with open(self.counter, "a") as handle:
-                handle.write(f"{what} {','.join(f'{v:.12g}' for v in theta.tolist())} {os.getpid()}\n")
+                values = ",".join(f"{v:.12g}" for v in theta.tolist())
+                handle.write(f"{what} {values} {os.getpid()}\n")
 
     def __call__(self, theta_p: Tensor) -> Tensor:
         theta = theta_p.reshape(-1)

@@ -56,18 +56,34 @@ def test_two_processes_overlapping_and_distinct_theta(tmp_path: Path) -> None:
     assert len(records) == 45 and all(r.ok for r in records)
     pids = sorted({r.pid for r in records})
     assert len(pids) == 2 and _overlap(records, pids)  # the two writers really overlapped
-    calls = collections.Counter(key for what, key, _ in read_counter(str(counter)) if what == "end")
+    ends = [(key, pid) for what, key, pid in read_counter(str(counter)) if what == "end"]
+    calls = collections.Counter(key for key, _ in ends)
     assert len(calls) == 45  # rows 15..29 may run in both; every result is kept once
+    print(f"model runs: {len(ends)} ({collections.Counter(pid for _, pid in ends)} per process), "
+          f"run twice: {sum(n > 1 for n in calls.values())}, stored: {len(records)}")
     reference = evaluate(model, theta)
     stored = {r.key: r.outputs for r in records}
     for row, expected in zip(theta, reference.outputs):
         assert np.array_equal(stored[theta_key(row)], expected)
 
 
-def test_two_processes_writing_fast(tmp_path: Path) -> None:
-    store, counter = EvaluationStore(tmp_path / "store.sqlite"), tmp_path / "calls.txt"
-    _run_together(store.path, counter, 0.0, [(0, 45), (0, 45)])
-    records = store.records(GridModel())
-    assert len(records) == 45 and len({r.key for r in records}) == 45
-    ends = [line for line in read_counter(str(counter)) if line[0] == "end"]
-    assert len(ends) >= 45  # each process finished its batch without a lost write
+
+class _OtherStudy(GridModel):
+    """While running θp (20, 1), another study on the same store finishes θp (30, 2)."""
+
+    def __init__(self, store: EvaluationStore, counter: str) -> None:
+        super().__init__(counter=counter)
+        self.store = store
+
+    def __call__(self, theta_p):
+        if float(theta_p[0]) == 20.0:
+            evaluate(GridModel(counter=self.counter), [[30.0, 2.0]], store=self.store)
+        return super().__call__(theta_p)
+
+
+def test_a_run_finished_by_another_process_meanwhile_is_not_repeated(tmp_path: Path) -> None:
+    store, counter = EvaluationStore(tmp_path / "s.sqlite"), str(tmp_path / "calls.txt")
+    result = evaluate(_OtherStudy(store, counter), [[20.0, 1.0], [30.0, 2.0]], store=store)
+    starts = [key for what, key, _ in read_counter(counter) if what == "start"]
+    assert sorted(starts) == ["20,1", "30,2"]  # (30, 2) ran once, in the other study
+    assert result.n_new == 1 and result.n_reused == 1 and result.ok.all()

@@ -48,13 +48,21 @@ def test_round_trip_is_exact_and_keeps_metadata(tmp_path: Path) -> None:
     first = evaluate(model, theta, store=store)
     again = evaluate(model, theta, store=EvaluationStore(tmp_path / "s.sqlite"))
     assert again.n_new == 0 and again.n_reused == 9
-    assert np.array_equal(again.outputs, first.outputs) and np.array_equal(again.theta_p, first.theta_p)
+    assert np.array_equal(again.outputs, first.outputs)
+    assert np.array_equal(again.theta_p, first.theta_p)
     stored_theta, stored = store.all(model)
     assert stored.shape == (9, 3, 7) and np.array_equal(stored_theta, canonical_theta(theta))
     record = store.records(model)[0]
     assert record.ok and record.host and record.pid > 0 and record.wall_time >= 0.0
     assert record.finished_at.endswith("+00:00") and record.model == "grid-model-v1"
     assert store.models() == ["grid-model-v1"] and store.count() == 9
+
+
+def test_empty_batch_and_bad_n_jobs(tmp_path: Path) -> None:
+    result = evaluate(GridModel(), np.empty((0, 2)), store=tmp_path / "s.sqlite")
+    assert result.outputs.shape == (0, 3, 7) and result.n_new == 0
+    with pytest.raises(ValueError, match="n_jobs must be a non-zero integer, got 0"):
+        evaluate(GridModel(), [[1.0, 2.0]], n_jobs=0)
 
 
 def test_store_is_empty_for_an_unknown_model(tmp_path: Path) -> None:
@@ -72,8 +80,9 @@ def test_damaged_value_is_never_read_as_valid(tmp_path: Path) -> None:
         rows = con.execute("SELECT theta_key, outputs FROM evaluations ORDER BY rowid").fetchall()
         flipped = bytearray(rows[0][1])
         flipped[13] ^= 0x01
-        con.execute("UPDATE evaluations SET outputs = ? WHERE theta_key = ?", (bytes(flipped), rows[0][0]))
-        con.execute("UPDATE evaluations SET outputs = ? WHERE theta_key = ?", (rows[1][1][:-8], rows[1][0]))
+        update = "UPDATE evaluations SET outputs = ? WHERE theta_key = ?"
+        con.execute(update, (bytes(flipped), rows[0][0]))
+        con.execute(update, (rows[1][1][:-8], rows[1][0]))
     assert len(store.records(model)) == 2  # the damaged two are skipped
     again = evaluate(model, theta, store=store)
     assert again.n_new == 2 and again.n_reused == 2  # the damaged ones ran again
@@ -111,3 +120,22 @@ def test_bad_store_path_is_a_one_line_error(tmp_path: Path) -> None:
 def test_model_without_sensor_positions_is_rejected() -> None:
     with pytest.raises(ValueError, match="has no attribute 'x'"):
         evaluate(lambda theta: theta, [[1.0, 2.0]])
+
+
+def test_a_store_write_failure_keeps_the_run_in_the_spool(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    store, model = EvaluationStore(tmp_path / "s.sqlite"), GridModel()
+    put, failures = store.put, [sqlite3.OperationalError("database is locked")] * 2
+
+    def flaky_put(record):
+        if failures:
+            raise failures.pop()
+        return put(record)
+
+    monkeypatch.setattr(store, "put", flaky_put)
+    result = evaluate(model, grid(3, 1), store=store)
+    assert result.ok.all() and result.n_new == 3
+    assert store.count(model) == 3 and not list(store.spool_folder.glob("*.npz"))
+    again = evaluate(model, grid(3, 1), store=tmp_path / "s.sqlite")
+    assert again.n_new == 0 and np.array_equal(again.outputs, result.outputs)

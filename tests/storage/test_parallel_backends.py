@@ -90,12 +90,3 @@ def test_a_dying_job_is_recorded_as_failed(tmp_path: Path) -> None:
     assert store.failures(GridModel())[1] == [result.errors[1]]
     retried = evaluate(GridModel(), theta, store=store, retry_failed=True)
     assert retried.ok.all() and retried.n_new == 1
-
-
-def test_executor_settings_errors(tmp_path: Path) -> None:
-    with pytest.raises(ValueError, match="unknown executor kind 'pbs'"):
-        make_executor("pbs", tmp_path)
-    with pytest.raises(ValueError, match="bad local executor parameter"):
-        make_executor("local", tmp_path, slurm_partitio="x")
-    assert evaluation_options("joblib", n_jobs=3) == {"n_jobs": 3, "executor": None}
-    assert evaluation_options() == {"n_jobs": 1, "executor": None}

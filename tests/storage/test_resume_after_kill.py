@@ -42,7 +42,7 @@ def test_sigkill_then_rerun_repeats_no_finished_evaluation(tmp_path: Path) -> No
 
     rerun = evaluate(model, theta, store=store)
 
-    calls = collections.Counter(key for what, key, _ in read_counter(str(counter)) if what == "start")
+    calls = collections.Counter(k for what, k, _ in read_counter(str(counter)) if what == "start")
     canonical = {theta_key(row): ",".join(f"{v:.12g}" for v in row) for row in theta}
     for key in finished_before:  # every evaluation stored before the kill ran exactly once
         assert calls[canonical[key]] == 1

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from conftest import StandInFrame
+from standin_frame import StandInFrame
 from torchshm.forward.protocol import ForwardModel
 from torchshm.surrogate import Surrogate, fit_surrogate, grid_design, load_surrogate
 
@@ -116,3 +116,36 @@ def test_store_resumes_without_new_model_runs(tmp_path) -> None:
     second = fit_surrogate(model, design, store=store, lengthscales=(0.5,), max_iter=50)
     assert model.calls == 15
     np.testing.assert_array_equal(second.outputs.numpy(), first.outputs.numpy())
+
+
+class SmoothModel(StandInFrame):
+    """A smooth response without elastic structure (not ∝ 1 / E)."""
+
+    identity = "smooth-stand-in/1"
+
+    def __call__(self, theta_p: torch.Tensor) -> torch.Tensor:
+        theta = torch.as_tensor(theta_p, dtype=torch.float64)
+        a, b = theta[..., 0, None, None] / 100.0, theta[..., 1, None, None] / 12.0
+        shape = torch.exp(-(((self.x - self.loads[:, None]) / 6.0) ** 2))
+        return 20.0 * (1.0 + 0.5 * torch.sin(2.0 * a)) * shape + 5.0 * b**2 * self.x / 35.0
+
+
+def test_plain_transform_for_a_model_without_elastic_structure(small_design) -> None:
+    model = SmoothModel()
+    sur = fit_surrogate(model, small_design, log_inputs=(), modulus=None,
+                        relative_to_modulus=())
+    assert sur.transform.modulus is None
+    theta = _random_theta(30, seed=6)
+    truth = model(theta)
+    error = (sur(theta) - truth).abs().amax(dim=(-2, -1))
+    assert float((error / truth.abs().amax(dim=(-2, -1))).max()) < 1e-3
+
+
+def test_prediction_is_the_transformed_gp_posterior(fitted: Surrogate) -> None:
+    theta = _random_theta(7, seed=8)
+    latent_mean, latent_var = fitted.gp.predict(fitted.transform.inputs(theta))
+    mean, var = fitted.predict(theta)
+    expected_mean = fitted.transform.strains(theta, latent_mean).reshape(mean.shape)
+    expected_var = fitted.transform.strain_variance(theta, latent_var).reshape(var.shape)
+    torch.testing.assert_close(mean, expected_mean, rtol=1e-10, atol=1e-10)
+    torch.testing.assert_close(var, expected_var, rtol=1e-10, atol=1e-14)

@@ -29,6 +29,8 @@ PROG = "torchshm-identify"
 
 log = logging.getLogger(__name__)
 
+register_configs()  # also in the worker processes of a parallel sweep (joblib launcher)
+
 
 @hydra.main(config_path=str(CONF_DIR), config_name=CONFIG_NAME, version_base="1.3")
 def _app(cfg: DictConfig) -> float | None:

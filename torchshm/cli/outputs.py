@@ -27,6 +27,12 @@ from torchshm.cli import plots
 
 log = logging.getLogger(__name__)
 
+#: abscissa of trace.png: VBMC history rows are per iteration, emcee rows per checkpoint
+TRACE_AXES = (
+    ("n_evaluations", "log-joint evaluations"),
+    ("n_samples", "samples (steps x walkers); statistics of the last window"),
+)
+
 
 def truths_of(attrs: Mapping[str, Any], names: list[str]) -> dict[str, float]:
     """True parameter values stored with synthetic data (``attrs["truth_<name>"]``)."""
@@ -61,10 +67,11 @@ def write_posterior(post: Any, out_dir: Path, attrs: Mapping[str, Any]) -> dict[
     if "elbo" in history and len(history["elbo"]):
         files["elbo"] = plots.elbo_plot(history, out_dir / "elbo.png")
     traces = history_traces(history, list(post.names))
-    if traces and "n_evaluations" in history:
+    axis = next(((k, label) for k, label in TRACE_AXES if k in history), None)
+    if traces and axis is not None:
         files["trace"] = plots.trace_plot(
-            history["n_evaluations"], traces, out_dir / "trace.png",
-            "log-joint evaluations", f"{post.method}: mean and 95 % interval",
+            history[axis[0]], traces, out_dir / "trace.png", axis[1],
+            f"{post.method}: mean and 95 % interval",
         )
     return files
 

@@ -25,7 +25,7 @@ CONFIG_NAME = "config"
 #: config groups whose options are numbers (``resolution=0.5`` selects ``resolution/0.5.yaml``)
 NUMERIC_GROUPS = ("resolution",)
 #: longest run-folder name made from the overrides before it is shortened with a hash
-MAX_DIRNAME = 120
+MAX_DIRNAME = 200
 
 _NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 

@@ -78,7 +78,7 @@ class ExternalModel:
         if Path(output).suffix not in (".npz", ".csv") or Path(output).name != output:
             raise ValueError(f"output must be a file name ending in .npz or .csv, got {output!r}")
         self.timeout, self.output = timeout, output
-        base = Path(workdir) if workdir is not None else Path(tempfile.gettempdir()) / "torchshm-runs"
+        base = Path(tempfile.gettempdir()) / "torchshm-runs" if workdir is None else Path(workdir)
         self.workdir = base.expanduser().resolve()
         self.names = None if names is None else [str(name) for name in names]
         self.keep_workdirs, self.kill_grace = keep_workdirs, float(kill_grace)

@@ -118,7 +118,7 @@ def _read_npz(path: Path, x: np.ndarray, loads: np.ndarray) -> np.ndarray:
 
 def _read_csv(path: Path, x: np.ndarray, loads: np.ndarray) -> np.ndarray:
     try:
-        with open(path) as handle:
+        with open(path, encoding="utf-8-sig") as handle:
             header = [column.strip().lower() for column in handle.readline().split(",")]
             table = np.loadtxt(handle, delimiter=",", dtype=np.float64, ndmin=2)
     except (OSError, ValueError, UnicodeDecodeError) as exc:

@@ -149,18 +149,17 @@ def load_posterior(path: str | Path) -> Posterior:
     names = json.loads(ds.attrs["names"])
     samples = np.stack([ds[n].values for n in names], axis=-1)  # chain x draw x D
     n_chain = samples.shape[0]
-    flat = lambda a: np.swapaxes(a, 0, 1).reshape(-1, *a.shape[2:])  # noqa: E731
     groups = _open_groups(path)
     hist = groups.get("history")
     history = {} if hist is None else {
         str(k): hist["value"].values[:, i] for i, k in enumerate(hist["column"].values)
     }
     stats = groups.get("sample_stats")
-    sample_stats = {} if stats is None else {str(k): flat(stats[k].values) for k in stats.data_vars}
+    sample_stats = {} if stats is None else {str(k): _flat(stats[k].values) for k in stats.data_vars}
     vp_ds = groups.get("variational_posterior")
     ev, ev_sd = float(ds.attrs["log_evidence"]), float(ds.attrs["log_evidence_sd"])
     return Posterior(
-        names=names, method=str(ds.attrs["method"]), samples=flat(samples),
+        names=names, method=str(ds.attrs["method"]), samples=_flat(samples),
         log_evidence=None if np.isnan(ev) else ev, log_evidence_sd=None if np.isnan(ev_sd) else ev_sd,
         n_model_evaluations=int(ds.attrs["n_model_evaluations"]),
         converged=bool(int(ds.attrs["converged"])), diagnostics=json.loads(ds.attrs["diagnostics"]),
@@ -168,6 +167,11 @@ def load_posterior(path: str | Path) -> Posterior:
         sample_stats=sample_stats, variational=None if vp_ds is None else _rebuild_variational(vp_ds),
         n_chains=n_chain, problem=None,
     )
+
+
+def _flat(values: np.ndarray) -> np.ndarray:
+    """(`chain x draw x ...`) values as flat step-major (`S x ...`): inverse of :func:`_chains`."""
+    return np.swapaxes(values, 0, 1).reshape(-1, *values.shape[2:])
 
 
 def _open_groups(path: Path) -> dict[str, xr.Dataset]:

@@ -47,15 +47,16 @@ class StartSettings:
     n_local: int | None = None
     keep_threshold: float | None = None
 
-    def resolved(self, dim: int) -> StartSettings:
-        """Settings with every None replaced by its default for dimension ``dim``."""
-        return StartSettings(
-            n_design=self.n_design if self.n_design is not None else 10 * -(-(dim + 1) // 10),
-            n_local=self.n_local if self.n_local is not None else 10 * dim,
-            keep_threshold=(
-                self.keep_threshold if self.keep_threshold is not None else 100.0 * (dim + 2)
-            ),
-        )
+    def resolved(self, dim: int, budget: int | None = None) -> StartSettings:
+        """Settings with every None replaced by its default for dimension ``dim``; with an
+        evaluation ``budget`` (PyVBMC's ``max_fun_evals``) the search takes at most half of it."""
+        n_design = self.n_design if self.n_design is not None else 10 * -(-(dim + 1) // 10)
+        n_local = self.n_local if self.n_local is not None else 10 * dim
+        if budget is not None:
+            n_design = min(n_design, budget // 2)
+            n_local = min(n_local, max(0, budget // 2 - n_design))
+        threshold = self.keep_threshold if self.keep_threshold is not None else 100.0 * (dim + 2)
+        return StartSettings(n_design=n_design, n_local=n_local, keep_threshold=threshold)
 
 
 def latin_design(plausible: np.ndarray, n: int, seed: int) -> np.ndarray:

@@ -102,22 +102,21 @@ def run_vbmc(
     plausible = np.asarray(problem.plausible_bounds, dtype=np.float64)
     calls_before = int(problem.n_model_evaluations)
     target = LogJointTarget(problem, point_log_for(problem), impute_failures=True, hard_bounds=hard)
-    previous = target.point_log.read() if (reuse and target.point_log is not None) else None
-    if previous is not None and previous.shape[0]:
-        target.evaluate(previous)
-    n_reused = 0 if previous is None else int(previous.shape[0])
-    settings = (start or StartSettings()).resolved(len(names))
+    n_reused = _reuse_previous_points(target) if reuse else 0
+    budget = int(options.get("max_fun_evals", 50 * (2 + len(names))))
+    settings = (start or StartSettings()).resolved(len(names), budget)
+    calls_before_search = int(problem.n_model_evaluations)
     find_start(target, plausible, hard, settings, seed)
-    n_initial = int(settings.n_design or 0) or 10
-    x0, precomputed = vbmc_start(target, n_initial, float(settings.keep_threshold or 0.0))
+    n_search = int(problem.n_model_evaluations) - calls_before_search  # charged to the budget
+    n_initial = int(options.get("fun_eval_start", 10 * -(-(len(names) + 1) // 10)))
+    x0, precomputed = vbmc_start(target, n_initial, float(settings.keep_threshold or 0))
 
     trace = RunTrace(log_dir, step_key="iteration")
     n_pre = 0 if precomputed is None else int(precomputed[0].shape[0])
-    n_x0 = 0 if x0 is None else int(x0.shape[0])
     vbmc = TracedVBMC(
         target, x0, hard[:, 0], hard[:, 1], plausible[:, 0], plausible[:, 1],
-        options=_pyvbmc_options(options, n_x0, n_initial), seed=seed,
-        precomputed_evaluations=precomputed,
+        options=_pyvbmc_options(options, 0 if x0 is None else x0.shape[0], n_initial), seed=seed,
+        precomputed_evaluations=precomputed, initialization_cost=n_search,
         on_iteration=lambda v: trace.log(_iteration_row(v, names, n_pre, seed)),
     )
     try:
@@ -125,10 +124,19 @@ def run_vbmc(
     finally:
         trace.close()
     return _posterior(problem, vp, results, trace, target, calls_before, n_samples, seed, {
-        "n_reused_points": n_reused, "n_precomputed": n_pre,
-        "n_start_evaluations": len(target.y) - n_reused - int(results["func_count"]),
+        "n_reused_points": n_reused, "n_precomputed": n_pre, "n_start_evaluations": n_search,
         "wall_time_s": time.perf_counter() - t0,
     })
+
+
+def _reuse_previous_points(target: LogJointTarget) -> int:
+    """Evaluate (through the store: no model call) the points a previous run logged."""
+    if target.point_log is None:
+        return 0
+    previous = target.point_log.read()
+    if previous.shape[0]:
+        target.evaluate(previous)
+    return int(previous.shape[0])
 
 
 def _posterior(

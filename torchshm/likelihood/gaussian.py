@@ -21,7 +21,7 @@ from torchshm.kernels.base import as_float64
 from torchshm.likelihood.cholesky import cholesky_with_jitter
 
 #: largest covariance batch [bytes] factorised at once; bigger batches are split in chunks
-CHUNK_BYTES = 2**27
+CHUNK_BYTES = 2**25
 LOG_2PI = math.log(2.0 * math.pi)
 
 
@@ -76,24 +76,28 @@ def log_likelihood(
     n_batch = math.prod(batch)
     eta_f = eta.expand(*batch, *y.shape).reshape(n_batch, *y.shape)
     sa_f, ell_f = sa.expand(batch).reshape(n_batch), ell.expand(batch).reshape(n_batch)
-    shared = sigma_m == 0.0
-    per_matrix = (1 if shared else y.shape[0]) * y.shape[1] ** 2 * 8
-    size = max(1, CHUNK_BYTES // per_matrix)
-    parts = [
-        _block_log_density(y, eta_f[i : i + size], x, kern, sa_f[i : i + size],
-                           ell_f[i : i + size], sigma_m, sigma_e)
-        for i in range(0, n_batch, size)
-    ]
-    out = torch.cat(parts) if parts else eta_f.new_zeros(0)
+    matrices = 1 if sigma_m == 0.0 else y.shape[0]  # covariances per parameter vector
+    step = max(1, CHUNK_BYTES // (matrices * y.shape[1] ** 2 * 8))
+    parts = []
+    for i in range(0, n_batch, step):
+        c = slice(i, i + step)
+        parts.append(_block_log_density(y, eta_f[c], x, kern, sa_f[c], ell_f[c], sigma_m, sigma_e))
+    out = parts[0] if len(parts) == 1 else torch.cat(parts) if parts else eta_f.new_zeros(0)
     bad = ~(torch.isfinite(eta_f).all(-1).all(-1) & torch.isfinite(sa_f) & torch.isfinite(ell_f))
     return torch.where(bad, torch.nan, out).reshape(batch)
 
 
 def _block_log_density(
-    y: Tensor, eta: Tensor, x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor,
-    sigma_m: float, sigma_e: float,
+    y: Tensor,
+    eta: Tensor,
+    x: Tensor,
+    kern: Kernel,
+    sigma_a: Tensor,
+    length: Tensor,
+    sigma_m: float,
+    sigma_e: float,
 ) -> Tensor:
-    """Log-likelihoods `B` for flat batches ``eta`` (`B x L x n`), ``sigma_a`` and ``length`` (`B`)."""
+    """Log-likelihoods `B` of flat batches: ``eta`` `B x L x n`, ``sigma_a`` and ``length`` `B`."""
     n_loads, n = y.shape
     resid = y - eta
     noise = sigma_e**2 + sigma_m**2 * eta.square()  # B x L x n

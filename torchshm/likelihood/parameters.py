@@ -103,7 +103,9 @@ def match_positions(wanted: np.ndarray, available: np.ndarray, what: str) -> np.
     ordered = available[order]
     right = np.searchsorted(ordered, wanted).clip(0, ordered.size - 1)
     left = (right - 1).clip(0, ordered.size - 1)
-    nearest = np.where(np.abs(ordered[left] - wanted) <= np.abs(ordered[right] - wanted), left, right)
+    nearest = np.where(
+        np.abs(ordered[left] - wanted) <= np.abs(ordered[right] - wanted), left, right
+    )
     missing = wanted[np.abs(ordered[nearest] - wanted) > MATCH_TOL]
     if missing.size:
         shown = ", ".join(f"{v:g}" for v in missing[:5]) + (", ..." if missing.size > 5 else "")

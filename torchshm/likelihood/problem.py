@@ -19,8 +19,9 @@ from torch import Tensor
 
 from torchshm.kernels import Kernel, get_kernel
 from torchshm.kernels.base import as_float64
+from torchshm.likelihood.evaluations import CachedModel, as_numpy
 from torchshm.likelihood.gaussian import log_likelihood
-from torchshm.likelihood.parameters import STATISTICAL, canonical_key, match_positions, read_priors
+from torchshm.likelihood.parameters import STATISTICAL, match_positions, read_priors
 from torchshm.priors import Prior, paper_priors
 
 
@@ -68,13 +69,11 @@ class Problem:
         )
         self.names = [n for n in self.physical_names if isinstance(self.priors[n], Prior)]
         self.names += [n for n in STATISTICAL if isinstance(self.priors.get(n), Prior)]
-        self.load_index = match_positions(measurements.loads, _numpy(model.loads), "load case")
-        self.x_index = match_positions(measurements.x, _numpy(model.x), "position")
+        self.load_index = match_positions(measurements.loads, as_numpy(model.loads), "load case")
+        self.x_index = match_positions(measurements.x, as_numpy(model.x), "position")
         self._y = torch.as_tensor(np.asarray(measurements.y, dtype=np.float64))
         self._x = torch.as_tensor(np.asarray(measurements.x, dtype=np.float64))
-        self.store = _open_store(store)
-        self.n_model_evaluations = 0
-        self._cache: dict[tuple[float, ...], Tensor] = {}
+        self._model = CachedModel(model, store)
 
     # ------------------------------------------------------------------ bounds and prior
     @property
@@ -132,8 +131,14 @@ class Problem:
         eta = torch.where(finite[:, None, None], eta, 0.0)
         sigma_a, length = (self._column(rows, name) for name in STATISTICAL)
         value = log_likelihood(
-            self._y, eta, self._x, self.kernel, sigma_a, length if self.kernel.has_length else None,
-            self.sigma_m, self.sigma_e,
+            self._y,
+            eta,
+            self._x,
+            self.kernel,
+            sigma_a,
+            length if self.kernel.has_length else None,
+            self.sigma_m,
+            self.sigma_e,
         )
         return torch.where(finite, _nan_to_neg_inf(value), -torch.inf)
 
@@ -150,7 +155,10 @@ class Problem:
         is_torch = isinstance(theta, Tensor)
         t = as_float64(theta)
         if t.ndim == 0 or t.shape[-1] != len(self.names):
-            raise ValueError(f"theta must have shape (..., {len(self.names)}) for {self.names}, got {tuple(t.shape)}")
+            d = len(self.names)
+            raise ValueError(
+                f"theta must have shape (..., {d}) for {self.names}, got {tuple(t.shape)}"
+            )
         return t.reshape(-1, len(self.names)), tuple(t.shape[:-1]), is_torch
 
     def _column(self, rows: Tensor, name: str) -> Tensor:
@@ -164,83 +172,35 @@ class Problem:
         return torch.stack([self._column(rows, name) for name in self.physical_names], dim=-1)
 
     # ------------------------------------------------------------------ model evaluations
+    @property
+    def store(self) -> Any:
+        """The ``EvaluationStore`` every model evaluation goes through, or ``None``."""
+        return self._model.store
+
+    @property
+    def n_model_evaluations(self) -> int:
+        """Model calls made by this problem (cache and store hits excluded)."""
+        return self._model.n_evaluations
+
     def model_outputs(self, theta_p: object) -> Tensor:
         """Model strains `... x L_model x n_model` [µε] for physical parameters `... x P`.
 
-        Each distinct vector (to 12 significant digits) is evaluated once per call, and once
-        per ``Problem`` (in-process cache) or, with a store, once per store. A tensor that
-        requires grad is sent to the model every time (cached outputs carry no graph), unless
-        a store is used; with a store the outputs are never differentiable.
+        Each distinct vector (to 12 significant digits) is evaluated once per ``Problem``, or
+        once per store with a store; NaN where a run failed. A tensor that requires grad keeps
+        its graph through the model when no store is used (see :class:`CachedModel`).
         """
-        tp = as_float64(theta_p)
-        flat = tp.reshape(-1, tp.shape[-1])
-        keys = [canonical_key(row) for row in flat.detach().cpu().numpy()]
-        unique, first, inverse = _dedupe(keys)
-        if flat.requires_grad and self.store is None:
-            out = self._call_model(flat[first])
-            self._cache.update((k, o.detach()) for k, o in zip(unique, out))
-        else:
-            todo = [i for i, k in zip(first, unique) if k not in self._cache]
-            if todo:
-                self._evaluate(flat[todo].detach(), [keys[i] for i in todo])
-            out = torch.stack([self._cache.get(k, self._failed()) for k in unique])
-        return out[inverse].reshape(*tp.shape[:-1], *out.shape[-2:])
-
-    def _call_model(self, rows: Tensor) -> Tensor:
-        self.n_model_evaluations += rows.shape[0]
-        out = as_float64(self.model(rows))
-        expected = (rows.shape[0], len(_numpy(self.model.loads)), len(_numpy(self.model.x)))
-        if tuple(out.shape) != expected:
-            raise ValueError(f"the model returned shape {tuple(out.shape)}, expected {expected}")
-        return out
-
-    def _evaluate(self, rows: Tensor, keys: list[tuple[float, ...]]) -> None:
-        """Evaluate rows `U x P` (directly or through the store) and cache finished outputs."""
-        if self.store is None:
-            with torch.no_grad():
-                outputs = self._call_model(rows)
-            self._cache.update((k, o.detach()) for k, o in zip(keys, outputs))
-            return
-        from torchshm.storage import evaluate
-
-        res = evaluate(self.model, rows.numpy(), store=self.store)
-        self.n_model_evaluations += int(res.n_new)
-        outputs = torch.as_tensor(np.asarray(res.outputs, dtype=np.float64))
-        self._cache.update((k, o) for k, o, ok in zip(keys, outputs, res.ok) if ok)
-
-    def _failed(self) -> Tensor:
-        shape = (len(_numpy(self.model.loads)), len(_numpy(self.model.x)))
-        return torch.full(shape, math.nan, dtype=torch.float64)
+        return self._model(theta_p)
 
     def evaluations(self) -> tuple[np.ndarray, np.ndarray]:
         """``(theta_p (M, P), outputs (M, L_model, n_model))`` of every finished evaluation
-        this problem has made or found in its store (non-finite outputs excluded)."""
-        if self.store is not None:
-            theta_p, outputs = self.store.all(self.model)
-            theta_p = np.asarray(theta_p, dtype=np.float64).reshape(len(outputs), len(self.physical_names))
-            return theta_p, np.asarray(outputs, dtype=np.float64)
-        items = [(k, o) for k, o in self._cache.items() if bool(torch.isfinite(o).all())]
-        theta_p = np.array([k for k, _ in items], dtype=np.float64).reshape(len(items), len(self.physical_names))
-        outputs = torch.stack([o for _, o in items]).numpy() if items else self._failed()[None][:0].numpy()
-        return theta_p, outputs
+        this problem has made or found in its store (failed runs excluded)."""
+        return self._model.evaluations(len(self.physical_names))
 
     def __repr__(self) -> str:
         return (
             f"Problem(kernel={self.kernel.name!r}, names={self.names}, "
             f"loads={len(self.load_index)}, n={len(self.x_index)})"
         )
-
-
-def _dedupe(keys: list[tuple[float, ...]]) -> tuple[list[tuple[float, ...]], list[int], Tensor]:
-    """Distinct keys (first-seen order), the index of each one's first row, and for every row
-    the position of its key among the distinct ones."""
-    slot: dict[tuple[float, ...], int] = {}
-    first: list[int] = []
-    for i, key in enumerate(keys):
-        if key not in slot:
-            slot[key] = len(first)
-            first.append(i)
-    return list(slot), first, torch.as_tensor([slot[k] for k in keys], dtype=torch.long)
 
 
 def _nan_to_neg_inf(value: Tensor) -> Tensor:
@@ -252,20 +212,6 @@ def _scale(name: str, value: object) -> float:
     if not math.isfinite(value) or value < 0:
         raise ValueError(f"Problem: {name} must be finite and >= 0, got {value}")
     return value
-
-
-def _numpy(values: object) -> np.ndarray:
-    if isinstance(values, Tensor):
-        return values.detach().cpu().numpy().astype(np.float64)
-    return np.asarray(values, dtype=np.float64)
-
-
-def _open_store(store: object) -> Any:
-    if store is None or not isinstance(store, (str, PathLike)):
-        return store
-    from torchshm.storage import EvaluationStore
-
-    return EvaluationStore(store)
 
 
 def _result(value: Tensor, shape: tuple[int, ...], is_torch: bool) -> Tensor | np.ndarray:

@@ -19,6 +19,7 @@ so K_r → ∞ (fixed bases, 1 / κ → 0) and K_r → 0 (hinged bases, 1 / κ �
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 import torch
@@ -59,6 +60,25 @@ def load_matrix(mesh: BridgeMesh, config: Bridge705Config) -> Tensor:
     return torch.stack(columns, dim=1)
 
 
+@lru_cache(maxsize=8)
+def _operators(config: Bridge705Config) -> tuple[Tensor, Tensor, Tensor, Tensor]:
+    """S0 (`n x L`), G (`n x 6`), H (`6 x 6`), R (`6 x L`): one K0 solve for the loads and the
+    pier-base rotations. Cached per configuration; the tensors are shared, never modified."""
+    mesh = bridge_mesh(config)
+    free = mesh.frame.free
+    position = torch.full((mesh.frame.n_dof,), -1, dtype=torch.int64)
+    position[free] = torch.arange(free.numel())
+    springs = position[mesh.pier_base_rotations]
+    F = load_matrix(mesh, config)[free]
+    P = torch.zeros(free.numel(), springs.numel(), dtype=torch.float64)
+    P[springs, torch.arange(springs.numel())] = 1.0
+    factor = torch.linalg.cholesky(reduced_stiffness(mesh.frame))
+    solution = torch.cholesky_solve(torch.cat([F, P], dim=1), factor)
+    K0_inv_F, K0_inv_P = solution[:, : F.shape[1]], solution[:, F.shape[1] :]
+    B = mesh.strain_operator(config.sensor_x(), config.deck.c_b)[:, free]
+    return B @ K0_inv_F, B @ K0_inv_P, K0_inv_P[springs], K0_inv_F[springs]
+
+
 class Bridge705:
     """2-D Euler–Bernoulli frame model of bridge 705 (deck strip on six pier rows).
 
@@ -81,26 +101,7 @@ class Bridge705:
         self.x = torch.as_tensor(self.config.sensor_x(), dtype=torch.float64)
         self.loads = torch.as_tensor(self.config.loads, dtype=torch.float64)
         self.identity = f"{self.config.identity()}-{FORMULATION}"
-        self._precompute()
-
-    def _precompute(self) -> None:
-        """Solve K0 once for the loads and the pier-base rotations; keep the reduced operators."""
-        mesh = bridge_mesh(self.config)
-        free = mesh.frame.free
-        position = torch.full((mesh.frame.n_dof,), -1, dtype=torch.int64)
-        position[free] = torch.arange(free.numel())
-        springs = position[mesh.pier_base_rotations]
-        F = load_matrix(mesh, self.config)[free]
-        P = torch.zeros(free.numel(), springs.numel(), dtype=torch.float64)
-        P[springs, torch.arange(springs.numel())] = 1.0
-        factor = torch.linalg.cholesky(reduced_stiffness(mesh.frame))
-        solution = torch.cholesky_solve(torch.cat([F, P], dim=1), factor)
-        K0_inv_F, K0_inv_P = solution[:, : F.shape[1]], solution[:, F.shape[1] :]
-        B = mesh.strain_operator(self.config.sensor_x(), self.config.deck.c_b)[:, free]
-        self.S0 = B @ K0_inv_F  # n x L
-        self.G = B @ K0_inv_P  # n x 6
-        self.H = K0_inv_P[springs]  # 6 x 6
-        self.R = K0_inv_F[springs]  # 6 x L
+        self.S0, self.G, self.H, self.R = _operators(self.config)
 
     def __call__(self, theta_p: Tensor | np.ndarray) -> Tensor:
         """Strains [µε] `... x L x n` for `theta_p` `... x 2` = (E_c [GPa], log10 K_r)."""

@@ -77,6 +77,9 @@ class Bridge705Config:
     loads: tuple[float, ...] = T1_POSITIONS
     truck: Truck = field(default_factory=lambda: T1)
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "loads", tuple(float(v) for v in self.loads))
+
     def pier_x(self) -> np.ndarray:
         """Pier positions [m], (`n_spans - 1`,)."""
         return self.length * np.arange(1, self.n_spans) / self.n_spans

@@ -35,6 +35,8 @@ class Truck:
     offsets: tuple[float, ...] = (0.0, 1.9, 5.1, 6.5)
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "masses", tuple(float(v) for v in self.masses))
+        object.__setattr__(self, "offsets", tuple(float(v) for v in self.offsets))
         if len(self.masses) != len(self.offsets):
             raise ValueError("truck: masses and offsets must have the same length")
 

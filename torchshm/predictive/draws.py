@@ -17,11 +17,11 @@ import torch
 from torch import Tensor
 
 from torchshm.kernels import Kernel, get_kernel
-from torchshm.kernels.base import as_float64
+from torchshm.kernels.base import as_float64, distances
 from torchshm.likelihood.cholesky import cholesky_with_jitter
 
-#: largest covariance batch [bytes] factorised at once
-CHUNK_BYTES = 2**26
+#: largest covariance batch [bytes] built and factorised at once (small batches stay in cache)
+CHUNK_BYTES = 2**21
 
 
 def predictive_draws(
@@ -63,15 +63,16 @@ def predictive_draws(
         sd = (kern.diag(x, sigma_a=sigma_a) + sigma_e**2).sqrt()  # N x n
         return out + sd[:, None, :] * z2
     ell = as_float64(length)
+    d = distances(x, x)
     size = max(1, CHUNK_BYTES // (n * n * 8))
     for start in range(0, n_draws, size):
         part = slice(start, start + size)
-        cov = kern(x, sigma_a=sigma_a[part], length=ell[part])
+        cov = kern.correlation(d, ell[part, None, None]) * sigma_a[part, None, None].square()
         cov.diagonal(dim1=-2, dim2=-1).add_(sigma_e**2)
         chol, failed = cholesky_with_jitter(cov)
         if bool(failed.any()):
             raise ValueError("predictive draws: a discrepancy covariance is not positive definite")
-        out[part] += (chol[:, None] @ z2[part].unsqueeze(-1)).squeeze(-1)
+        out[part] += torch.matmul(chol, z2[part].mT).mT
     return out
 
 

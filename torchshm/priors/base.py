@@ -39,19 +39,21 @@ class Prior(ABC):
 
     def __init__(self, bounds: Bounds | None, plausible: Bounds | None) -> None:
         support = self._support()
-        lo, hi = _pair(f"{self!r} bounds", support if bounds is None else bounds)
+        lo, hi = bounds_pair(f"{self!r} bounds", support if bounds is None else bounds)
         if lo < support[0] or hi > support[1]:
             raise ValueError(f"{self!r}: hard bounds {(lo, hi)} lie outside the support {support}")
         self.hard_bounds: Bounds = (lo, hi)
         self._cdf_lo, self._cdf_hi = (float(c) for c in self._scipy().cdf([lo, hi]))
-        self._log_mass = math.log(self._cdf_hi - self._cdf_lo) if self._cdf_hi > self._cdf_lo else -math.inf
-        if not math.isfinite(self._log_mass):
+        if not self._cdf_hi > self._cdf_lo:
             raise ValueError(f"{self!r}: hard bounds {(lo, hi)} hold no probability")
+        self._log_mass = math.log(self._cdf_hi - self._cdf_lo)
         if plausible is None:
             plausible = tuple(float(q) for q in self.ppf(np.asarray(PLAUSIBLE_QUANTILES)))
-        plo, phi = _pair(f"{self!r} plausible bounds", plausible)
+        plo, phi = bounds_pair(f"{self!r} plausible bounds", plausible)
         if plo < lo or phi > hi:
-            raise ValueError(f"{self!r}: plausible bounds {(plo, phi)} lie outside the hard bounds {(lo, hi)}")
+            raise ValueError(
+                f"{self!r}: plausible bounds {(plo, phi)} lie outside the hard bounds {(lo, hi)}"
+            )
         self.plausible_bounds: Bounds = (plo, phi)
 
     @abstractmethod
@@ -75,7 +77,7 @@ class Prior(ABC):
         Returns:
             Log densities of the same shape and kind as ``x`` (numpy for non-tensors).
         """
-        t = x.to(torch.float64) if isinstance(x, Tensor) else torch.as_tensor(np.array(x, dtype=np.float64, order="C"))
+        t = x.to(torch.float64) if isinstance(x, Tensor) else torch.as_tensor(_array(x))
         lo, hi = self.hard_bounds
         inside = (t >= lo) & (t <= hi)
         safe = torch.where(inside, t, self.plausible_bounds[0])
@@ -93,7 +95,12 @@ class Prior(ABC):
         return self.ppf(np.random.default_rng(rng).uniform(size=int(n)))
 
 
-def _pair(what: str, values: object) -> Bounds:
+def _array(values: object) -> np.ndarray:
+    """A C-contiguous float64 copy of an array-like (torch refuses negative strides)."""
+    return np.array(values, dtype=np.float64, order="C")
+
+
+def bounds_pair(what: str, values: object) -> Bounds:
     """``values`` as an increasing pair of floats; ``ValueError`` naming ``what`` otherwise."""
     try:
         lo, hi = (float(v) for v in values)  # type: ignore[union-attr]

@@ -8,7 +8,7 @@ import torch
 from scipy import stats
 from torch import Tensor
 
-from torchshm.priors.base import Bounds, Prior, _pair, positive
+from torchshm.priors.base import Bounds, Prior, bounds_pair, positive
 
 
 class Uniform(Prior):
@@ -21,7 +21,7 @@ class Uniform(Prior):
     """
 
     def __init__(self, a: float, b: float, plausible: Bounds | None = None) -> None:
-        self.a, self.b = _pair("Uniform(a, b)", (a, b))
+        self.a, self.b = bounds_pair("Uniform(a, b)", (a, b))
         super().__init__(None, plausible)
 
     def _support(self) -> Bounds:
@@ -50,7 +50,11 @@ class Gamma(Prior):
     """
 
     def __init__(
-        self, alpha: float, beta: float, bounds: Bounds | None = None, plausible: Bounds | None = None
+        self,
+        alpha: float,
+        beta: float,
+        bounds: Bounds | None = None,
+        plausible: Bounds | None = None,
     ) -> None:
         self.alpha = positive("Gamma alpha", alpha)
         self.beta = positive("Gamma beta (rate)", beta)
@@ -64,7 +68,9 @@ class Gamma(Prior):
 
     def _log_density(self, x: Tensor) -> Tensor:
         const = self.alpha * math.log(self.beta) - math.lgamma(self.alpha)
-        return const + torch.xlogy(torch.as_tensor(self.alpha - 1.0, dtype=x.dtype), x) - self.beta * x
+        return (
+            const + torch.xlogy(torch.as_tensor(self.alpha - 1.0, dtype=x.dtype), x) - self.beta * x
+        )
 
     def __repr__(self) -> str:
         return f"Gamma({self.alpha:g}, {self.beta:g})"

@@ -8,6 +8,7 @@ assemble the batch from stored and new results. A failing run never aborts the b
 from __future__ import annotations
 
 import logging
+import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -99,8 +100,9 @@ def evaluate(
     """
     theta = canonical_theta(theta_p)
     identity, shape = model_identity(model), output_shape(model)
-    if not isinstance(n_jobs, int) or n_jobs == 0:
+    if isinstance(n_jobs, bool) or not isinstance(n_jobs, numbers.Integral) or n_jobs == 0:
         raise ValueError(f"n_jobs must be a non-zero integer, got {n_jobs!r}")
+    n_jobs = int(n_jobs)
     if store is not None and not isinstance(store, EvaluationStore):
         store = EvaluationStore(store)
     keys = [theta_key(row) for row in theta]
@@ -112,16 +114,19 @@ def evaluate(
     todo = [k for k in distinct if k not in known or (retry_failed and not known[k].ok)]
     logger.info("%s: %d distinct θp, %d in the store, %d to run", identity, len(distinct),
                 len(distinct) - len(todo), len(todo))
-    if not todo:
-        new: dict[str, Record] = {}
-    elif executor is not None:
-        new = runners.run_submitit(model, identity, shape, todo, store, executor)
-    elif n_jobs != 1 and len(todo) > 1:
-        new = runners.run_joblib(model, identity, shape, todo, store, n_jobs)
-    else:
-        new = runners.run_serial(model, identity, shape, todo, store)
-    return _assemble(identity, theta, keys, {**known, **new}, shape, len(todo),
-                     len(distinct) - len(todo))
+    task = runners.Task(model, identity, shape, store, retry_failed)
+    new: dict[str, Record] = {}
+    n_calls = 0
+    if todo and executor is not None:
+        new, n_calls = runners.run_submitit(task, todo, executor)
+    elif todo and n_jobs != 1 and len(todo) > 1:
+        new, n_calls = runners.run_joblib(task, todo, n_jobs)
+    elif todo:
+        new, n_calls = runners.run_serial(task, todo)
+    if store is not None and new:
+        store.ingest()  # results a worker could only deposit in the spool
+    return _assemble(identity, theta, keys, {**known, **new}, shape, n_calls,
+                     len(distinct) - n_calls)
 
 
 def _assemble(

@@ -42,11 +42,15 @@ def make_executor(kind: str, folder: str | Path, **params: Any) -> submitit.Exec
         A ``submitit.AutoExecutor``.
 
     Raises:
-        ValueError: for an unknown kind or parameter (the message names it).
+        ValueError: for an unknown kind or parameter (the message names it), or for
+            ``"slurm"`` on a machine without Slurm.
     """
     if kind not in EXECUTOR_KINDS:
         raise ValueError(f"unknown executor kind {kind!r}; expected one of {EXECUTOR_KINDS}")
-    executor = submitit.AutoExecutor(folder=str(folder), cluster=kind)
+    try:
+        executor = submitit.AutoExecutor(folder=str(folder), cluster=kind)
+    except RuntimeError as exc:  # e.g. no ``srun`` on this machine
+        raise ValueError(f"cannot make a {kind} executor here: {exc}") from None
     try:
         executor.update_parameters(**{**_DEFAULTS[kind], **params})
     except (NameError, AssertionError, ValueError, TypeError) as exc:

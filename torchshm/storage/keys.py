@@ -45,7 +45,8 @@ def canonical_theta(theta_p: object) -> np.ndarray:
     if bad.any():
         row = int(np.flatnonzero(bad)[0])
         raise ValueError(f"theta_p row {row} is not finite: {theta[row].tolist()}")
-    return np.array([[float(_FORMAT.format(v)) + 0.0 for v in row] for row in theta])
+    rounded = [float(_FORMAT.format(v)) + 0.0 for v in theta.ravel().tolist()]
+    return np.array(rounded, dtype=np.float64).reshape(theta.shape)
 
 
 def theta_key(theta: np.ndarray) -> str:

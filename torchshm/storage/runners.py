@@ -4,6 +4,9 @@ Each runner calls the model once per parameter vector and hands every result to 
 soon as it exists, from the process that ran it: in process and with joblib the worker
 commits to the SQLite file itself; a submitit job (possibly on another machine) deposits its
 result in the store's spool folder. Scheduling is left to joblib and submitit.
+
+In process and with joblib, the store is asked again just before each model call, so a run
+that another process finished meanwhile (two studies sharing a store) is not repeated.
 """
 
 from __future__ import annotations
@@ -13,55 +16,69 @@ import logging
 import os
 import socket
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import joblib
 import submitit
 
 from torchshm.storage.keys import key_theta
-from torchshm.storage.record import Record, error_text, now_utc, run_model
+from torchshm.storage.record import Record, now_utc, run_model
 from torchshm.storage.store import EvaluationStore
 
 logger = logging.getLogger(__name__)
 
 
-def run_serial(
-    model: Any, identity: str, shape: tuple[int, int], keys: Sequence[str],
-    store: EvaluationStore | None,
-) -> dict[str, Record]:
+@dataclass(frozen=True)
+class Task:
+    """What every evaluation of one batch shares (picklable, sent to workers).
+
+    Attributes:
+        model: the forward model.
+        identity: its identity in the store.
+        shape: expected output shape `(L_model, n_model)`.
+        store: where results go, or None.
+        retry_failed: whether a stored failure is run again.
+    """
+
+    model: Any
+    identity: str
+    shape: tuple[int, int]
+    store: EvaluationStore | None
+    retry_failed: bool = False
+
+
+#: a runner's result: key -> record, and the number of model calls made
+Outcome = tuple[dict[str, Record], int]
+
+
+def run_serial(task: Task, keys: Sequence[str]) -> Outcome:
     """Evaluate one key after the other in this process, committing each result at once."""
-    return {key: _run_and_put(model, identity, shape, key, store) for key in keys}
+    results = [_run_and_save(task, key) for key in keys]
+    return {record.key: record for record, _ in results}, sum(ran for _, ran in results)
 
 
-def run_joblib(
-    model: Any, identity: str, shape: tuple[int, int], keys: Sequence[str],
-    store: EvaluationStore | None, n_jobs: int,
-) -> dict[str, Record]:
+def run_joblib(task: Task, keys: Sequence[str], n_jobs: int) -> Outcome:
     """Evaluate the keys in ``n_jobs`` local worker processes (joblib's loky backend).
 
     Each worker commits its result to the store itself, so a result is durable even if this
     process dies before collecting it.
     """
-    task = joblib.delayed(_run_and_put)
-    records = joblib.Parallel(n_jobs=n_jobs, batch_size=1)(
-        task(model, identity, shape, key, store) for key in keys
+    results = joblib.Parallel(n_jobs=n_jobs, batch_size=1)(
+        joblib.delayed(_run_and_save)(task, key) for key in keys
     )
-    return {record.key: record for record in records}
+    return {record.key: record for record, _ in results}, sum(ran for _, ran in results)
 
 
-def run_submitit(
-    model: Any, identity: str, shape: tuple[int, int], keys: Sequence[str],
-    store: EvaluationStore | None, executor: Any,
-) -> dict[str, Record]:
+def run_submitit(task: Task, keys: Sequence[str], executor: Any) -> Outcome:
     """Evaluate the keys as one submitit job array (one job per θp) and wait for them.
 
     Jobs deposit their result in the store's spool folder; this process ingests the folder
     after each job. A job that dies without a result (time limit, out of memory, node failure)
     is recorded as a failed evaluation with the scheduler's error.
     """
-    task = functools.partial(_run_and_deposit, model, identity, shape, store=store)
-    jobs = executor.map_array(task, list(keys))
-    logger.info("submitted %d evaluations of %s as jobs %s", len(jobs), identity,
+    jobs = executor.map_array(functools.partial(_run_and_deposit, task), list(keys))
+    logger.info("submitted %d evaluations of %s as jobs %s", len(jobs), task.identity,
                 ", ".join(str(job.job_id) for job in jobs[:3]) + (" ..." if len(jobs) > 3 else ""))
     records: dict[str, Record] = {}
     for key, job in zip(keys, jobs):
@@ -69,17 +86,16 @@ def run_submitit(
             record = job.result()
         except Exception as exc:  # the job itself failed; the model call may never have run
             record = Record(
-                model=identity, key=key, status="failed", outputs=None,
-                error=f"job {job.job_id} failed: {_job_error(exc)}",
-                wall_time=float("nan"),
+                model=task.identity, key=key, status="failed", outputs=None,
+                error=f"job {job.job_id} failed: {_job_error(exc)}", wall_time=float("nan"),
                 finished_at=now_utc(), host=socket.gethostname(), pid=os.getpid(),
-                traceback=error_text(exc),
+                traceback=str(exc),
             )
-        if store is not None:
-            store.ingest()
-            store.put(record)
+        if task.store is not None:
+            task.store.ingest()
+            task.store.save(record)
         records[key] = record
-    return records
+    return records, len(jobs)
 
 
 def _job_error(exc: BaseException) -> str:
@@ -90,19 +106,20 @@ def _job_error(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {' '.join(lines[:2])}"
 
 
-def _run_and_put(
-    model: Any, identity: str, shape: tuple[int, int], key: str, store: EvaluationStore | None
-) -> Record:
-    record = run_model(model, identity, key, key_theta(key), shape)
-    if store is not None:
-        store.put(record)
-    return record
+def _run_and_save(task: Task, key: str) -> tuple[Record, bool]:
+    """Run one key unless the store got it meanwhile; returns the record and whether it ran."""
+    if task.store is not None:
+        found = task.store.lookup(task.identity, [key]).get(key)
+        if found is not None and (found.ok or not task.retry_failed):
+            return found, False
+    record = run_model(task.model, task.identity, key, key_theta(key), task.shape)
+    if task.store is not None:
+        task.store.save(record)
+    return record, True
 
 
-def _run_and_deposit(
-    model: Any, identity: str, shape: tuple[int, int], key: str, store: EvaluationStore | None
-) -> Record:
-    record = run_model(model, identity, key, key_theta(key), shape)
-    if store is not None:
-        store.deposit(record)
+def _run_and_deposit(task: Task, key: str) -> Record:
+    record = run_model(task.model, task.identity, key, key_theta(key), task.shape)
+    if task.store is not None:
+        task.store.deposit(record)
     return record

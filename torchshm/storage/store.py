@@ -129,7 +129,9 @@ class EvaluationStore:
             except sqlite3.DatabaseError as exc:
                 raise ValueError(f"{self.path} is not an evaluation store: {exc}") from None
         if version != SCHEMA_VERSION:
-            raise ValueError(f"{self.path}: store schema version {version}, expected {SCHEMA_VERSION}")
+            raise ValueError(
+                f"{self.path}: store schema version {version}, expected {SCHEMA_VERSION}"
+            )
 
     def put(self, record: Record) -> bool:
         """Commit one evaluation in its own transaction.
@@ -151,6 +153,18 @@ class EvaluationStore:
             written = con.execute(_UPSERT, row).rowcount
             con.execute("COMMIT")
         return written > 0
+
+    def save(self, record: Record) -> None:
+        """Commit a record; if the SQLite file cannot be written, deposit it in the spool.
+
+        A finished run is never lost to a locked or unwritable store file: a spool file is
+        moved into the store by the next :meth:`ingest`.
+        """
+        try:
+            self.put(record)
+        except sqlite3.Error as exc:
+            path = self.deposit(record)
+            logger.warning("%s: cannot write (%s); result kept in %s", self, exc, path)
 
     def lookup(self, model: object, keys: Sequence[str]) -> dict[str, Record]:
         """Stored evaluations of a model at canonical keys (see :func:`theta_key`).
@@ -276,5 +290,6 @@ def _row_record(row: tuple) -> Record | None:
         return None
     return Record(
         model=model, key=key, status=status, outputs=outputs, error=error,
-        wall_time=float("nan") if row[8] is None else float(row[8]), finished_at=row[9], host=row[10], pid=row[11], traceback=row[12],
+        wall_time=float("nan") if row[8] is None else float(row[8]),  # SQLite stores NaN as NULL
+        finished_at=row[9], host=row[10], pid=row[11], traceback=row[12],
     )

@@ -15,7 +15,13 @@ the one Cholesky factor is broadcast over the outputs instead of being repeated 
 
 The predictive mean of every output and the (shared) predictive variance of the latent
 function follow from the same factor: ``mean = K_*ᵀ C⁻¹ Y``, ``var = k_** - K_*ᵀ C⁻¹ K_*``,
-the equations GPyTorch's exact prediction strategy uses for a single output.
+the equations GPyTorch's exact prediction strategy uses for a single output (GPyTorch's
+eval-mode ``ExactGP`` does not accept a batch of targets with an unbatched kernel).
+
+Why this and not another multi-output GP: a Kronecker multitask GP with the task covariance
+fixed to I is also exact, but differentiates an eigendecomposition of K and its prediction path
+forms `(T m) x (T m)` matrices; a batch GP with shared hyperparameters copies and factors C
+once per output; a PCA basis is approximate. See ``docs/surrogate.md``.
 """
 
 from __future__ import annotations
@@ -126,6 +132,25 @@ class SharedKernelGP(gpytorch.models.ExactGP):
         self._factor = covar.cholesky().to_dense()
         self._weights = torch.cholesky_solve(self.train_targets.mT, self._factor)
 
+    @property
+    def weights(self) -> Tensor:
+        """`N x m` weights ``C⁻¹ Y`` of the posterior mean (cached by :meth:`freeze`)."""
+        if self._weights is None:
+            self.freeze()
+        return self._weights
+
+    def cross_covariance(self, x: Tensor) -> Tensor:
+        """`T x N` prior covariance between `T x d` inputs and the training inputs."""
+        return self.covar_module(x, self.train_inputs[0]).to_dense()
+
+    def latent_variance(self, x: Tensor, cross: Tensor) -> Tensor:
+        """Posterior variance `T x 1` of the latent function, shared by all outputs."""
+        if self._factor is None:
+            self.freeze()
+        solved = torch.linalg.solve_triangular(self._factor, cross.mT, upper=False)
+        prior = self.covar_module(x, diag=True)
+        return (prior - solved.square().sum(dim=-2)).clamp_min(0.0).unsqueeze(-1)
+
     def predict(self, x: Tensor, variance: bool = True) -> tuple[Tensor, Tensor | None]:
         """Posterior of the latent functions at `T x d` inputs.
 
@@ -133,12 +158,5 @@ class SharedKernelGP(gpytorch.models.ExactGP):
             The mean `T x m` of every output and, when asked, the latent variance `T x 1`
             shared by all outputs (standardised units).
         """
-        if self._factor is None or self._weights is None:
-            self.freeze()
-        cross = self.covar_module(x, self.train_inputs[0]).to_dense()
-        mean = cross @ self._weights
-        if not variance:
-            return mean, None
-        solved = torch.linalg.solve_triangular(self._factor, cross.mT, upper=False)
-        prior = self.covar_module(x, diag=True)
-        return mean, (prior - solved.square().sum(dim=-2)).clamp_min(0.0).unsqueeze(-1)
+        cross = self.cross_covariance(x)
+        return cross @ self.weights, self.latent_variance(x, cross) if variance else None

@@ -1,0 +1,73 @@
+"""The shipped surrogate of bridge 705 against the finite element model (acceptance checks).
+
+If the finite element model changes, these tests fail until the shipped file is regenerated
+with ``python scripts/make_surrogate.py``.
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+import torch
+
+import torchshm
+from torchshm.surrogate import (
+    POSTERIOR_BOX, PRIOR_BOX, Surrogate, bridge705_surrogate, paper_design, surrogate_errors,
+    uniform_in_box,
+)
+
+
+@pytest.fixture(scope="module")
+def model():
+    return torchshm.bridge705()
+
+
+@pytest.fixture(scope="module")
+def shipped() -> Surrogate:
+    return bridge705_surrogate()
+
+
+def test_loads_fast_without_the_model() -> None:
+    times = []
+    for _ in range(3):
+        start = time.perf_counter()
+        sur = torchshm.bridge705_surrogate()
+        times.append(time.perf_counter() - start)
+    assert isinstance(sur, Surrogate)
+    assert min(times) < 0.5
+
+
+def test_trained_on_the_current_model(shipped: Surrogate, model) -> None:
+    assert shipped.model_identity == model.identity, (
+        "the finite element model changed: run python scripts/make_surrogate.py")
+    torch.testing.assert_close(shipped.theta_p, paper_design())
+    torch.testing.assert_close(shipped.outputs, model(paper_design()), rtol=0, atol=1e-9)
+
+
+def test_same_forward_model_contract(shipped: Surrogate, model) -> None:
+    torch.testing.assert_close(shipped.x, model.x)
+    torch.testing.assert_close(shipped.loads, model.loads)
+    assert shipped.names == tuple(model.names)
+    theta = uniform_in_box(6, PRIOR_BOX, seed=5).reshape(2, 3, 2)
+    assert shipped(theta).shape == model(theta).shape == (2, 3, 12, 351)
+    assert shipped.variance(theta).shape == (2, 3, 12, 351)
+
+
+def test_accuracy_in_the_prior_box(shipped: Surrogate, model) -> None:
+    """40 held-out runs, E_c ~ U(10, 100), log10 K_r ~ U(0, 12): within 1 % of each run's peak."""
+    errors = surrogate_errors(shipped, model, uniform_in_box(40, PRIOR_BOX, seed=2024))
+    assert errors.max_rel_run_peak <= 0.01, errors.line()
+
+
+def test_accuracy_in_the_posterior_region(shipped: Surrogate, model) -> None:
+    """40 held-out runs, E_c in 25-45 GPa, log10 K_r in 10.5-12: within 0.05 µε."""
+    errors = surrogate_errors(shipped, model, uniform_in_box(40, POSTERIOR_BOX, seed=2025))
+    assert errors.max_abs <= 0.05, errors.line()
+
+
+def test_variance_is_small_at_the_design_and_non_negative(shipped: Surrogate) -> None:
+    at_design = shipped.variance(paper_design())
+    away = shipped.variance(uniform_in_box(100, PRIOR_BOX, seed=7))
+    assert bool((at_design >= 0).all()) and bool((away >= 0).all())
+    assert float(at_design.max().sqrt()) < 1e-3  # µε, against σ_e = 0.1 µε
