@@ -123,7 +123,7 @@ def linear_gaussian_problem(
     """A :class:`~torchshm.Problem` whose posterior is Gaussian (see the module docstring)."""
     model = model or LinearModel(n_params=len(truth))
     rng = np.random.default_rng(seed)
-    eta = model(torch.tensor(truth)).numpy()
+    eta = np.einsum("p,pln->ln", np.asarray(truth, dtype=np.float64), model.basis.numpy())
     noise = np.sqrt(sigma_a**2 + sigma_e**2)
     y = eta + noise * rng.standard_normal(eta.shape)
     meas = Measurements(model.x.numpy(), y, model.loads.numpy(), sigma_e=sigma_e)

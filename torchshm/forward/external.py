@@ -73,7 +73,7 @@ class ExternalModel:
     ) -> None:
         self.command = _check_command(command)
         self.x, self.loads = _check_axis(x, "x"), _check_axis(loads, "loads")
-        if timeout is not None and not timeout > 0:
+        if timeout is not None and not (isinstance(timeout, (int, float)) and timeout > 0):
             raise ValueError(f"timeout must be positive seconds or None, got {timeout!r}")
         if Path(output).suffix not in (".npz", ".csv") or Path(output).name != output:
             raise ValueError(f"output must be a file name ending in .npz or .csv, got {output!r}")

@@ -106,17 +106,21 @@ def find_start(
 ) -> None:
     """Evaluate the design and run the local search; the evaluations stay in ``target``.
 
-    The local search starts from the best point known so far (a previous run's included), or
-    from the centre of the plausible box when none is known.
+    The local search starts from the best design point, so that, with the same seed, a rerun
+    on the same store retraces the same search from stored evaluations (no model call). Without
+    a design it starts from the best point known (a previous run's), else from the centre of
+    the plausible box.
     """
     s = settings.resolved(plausible.shape[0])
     design = latin_design(plausible, int(s.n_design or 0), seed)
-    if design.shape[0]:
-        target.evaluate(design)
+    values = target.evaluate(design) if design.shape[0] else np.zeros(0)
     if not s.n_local:
         return
-    X, _ = target.known()
-    x_start = X[0] if X.shape[0] else plausible.mean(axis=1)
+    if np.isfinite(values).any():
+        x_start = design[int(np.argmax(values))]
+    else:
+        X, _ = target.known()
+        x_start = X[0] if X.shape[0] else plausible.mean(axis=1)
     local_search(target, x_start, plausible, hard, int(s.n_local))
 
 

@@ -93,8 +93,8 @@ def build_mesh(
     deck_EI: np.ndarray | float,
     pier_x: np.ndarray,
     pier_height: float,
-    pier_EA: float,
-    pier_EI: float,
+    pier_EA: np.ndarray | float,
+    pier_EI: np.ndarray | float,
     pier_elements: int = 4,
     pier_base: PierBase = "hinged",
     K_r: float = 0.0,
@@ -108,8 +108,8 @@ def build_mesh(
         deck_EI: bending stiffness [N·mm²], scalar or one value per deck element.
         pier_x: pier positions [m] (deck nodes).
         pier_height: pier length from the deck axis to the base [m].
-        pier_EA: pier axial stiffness [N].
-        pier_EI: pier bending stiffness [N·mm²].
+        pier_EA: pier axial stiffness [N], scalar or one value per pier element (top first).
+        pier_EI: pier bending stiffness [N·mm²], scalar or one value per pier element.
         pier_elements: elements per pier.
         pier_base: rotation condition at the pier bases.
         K_r: rotational spring at each pier base [N·mm/rad] (used when ``pier_base="spring"``).
@@ -127,9 +127,9 @@ def build_mesh(
         chain = np.concatenate([[top], np.arange(first, first + pier_elements)])
         elements.append(np.column_stack([chain[:-1], chain[1:]]))
         bases.append(first + pier_elements - 1)
-    n_pier_el = len(pier_x) * pier_elements
-    EA = np.concatenate([np.broadcast_to(deck_EA, (n_el,)), np.full(n_pier_el, pier_EA)])
-    EI = np.concatenate([np.broadcast_to(deck_EI, (n_el,)), np.full(n_pier_el, pier_EI)])
+    n_piers = len(pier_x)
+    EA = np.concatenate([np.broadcast_to(deck_EA, (n_el,)), np.tile(np.broadcast_to(pier_EA, (pier_elements,)), n_piers)])
+    EI = np.concatenate([np.broadcast_to(deck_EI, (n_el,)), np.tile(np.broadcast_to(pier_EI, (pier_elements,)), n_piers)])
     base = torch.as_tensor(bases, dtype=torch.int64)
     fixed = [dof(0, 0), dof(0, 1), dof(n_deck - 1, 1)]
     fixed_t = torch.cat([torch.tensor(fixed), dof(base, 0), dof(base, 1)])

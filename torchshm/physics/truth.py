@@ -69,6 +69,9 @@ class TruthConfig:
         fine_end: end of the fine mesh [m].
         haunch_depth: extra deck thickness at a pier [m].
         haunch_length: length of the linear haunch taper on each side of a pier [m].
+        pier_flare: extra pier depth (along the bridge) where the pier meets the deck [m].
+        pier_flare_length: length of the linear flare taper down the pier [m].
+        pier_elements: frame elements per pier.
         zones: pavement and rail zones.
         cracks: crack zones.
         gauge_length: length over which the fibre averages the strain [m] (0: point values).
@@ -83,6 +86,9 @@ class TruthConfig:
     fine_end: float = 70.2
     haunch_depth: float = 0.1
     haunch_length: float = 2.0
+    pier_flare: float = 0.0
+    pier_flare_length: float = 1.5
+    pier_elements: int = 8
     zones: tuple[Zone, ...] = (
         Zone(30.0, 38.6, 1.06, 1.02),
         Zone(41.0, 46.4, 1.12, 1.04),
@@ -126,11 +132,22 @@ def deck_sections(config: TruthConfig, deck_x: np.ndarray) -> tuple[np.ndarray, 
     return area, inertia, c_b
 
 
+def pier_sections(config: TruthConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Per-element pier area [mm²] and inertia [mm⁴], top element first (flared head)."""
+    model = config.model
+    n = config.pier_elements
+    below_top = (np.arange(n) + 0.5) * model.pier_height / n  # element midpoints [m]
+    flare = config.pier_flare * np.clip(1.0 - below_top / config.pier_flare_length, 0.0, None)
+    depth = model.pier.depth + flare
+    return model.pier.width * depth * 1e6, model.pier.width * depth**3 / 12.0 * 1e12
+
+
 def truth_mesh(config: TruthConfig) -> tuple[BridgeMesh, np.ndarray]:
     """The truth frame at the true parameters, and its per-element bottom-fibre distance [mm]."""
     model = config.model
     deck_x = model.deck_x(fine=(config.fine_start, config.fine_end, config.fine_pitch))
     area, inertia, c_b = deck_sections(config, deck_x)
+    pier_area, pier_inertia = pier_sections(config)
     E = 1000.0 * config.E_c
     mesh = build_mesh(
         deck_x=deck_x,
@@ -138,9 +155,9 @@ def truth_mesh(config: TruthConfig) -> tuple[BridgeMesh, np.ndarray]:
         deck_EI=E * inertia,
         pier_x=model.pier_x(),
         pier_height=model.pier_height,
-        pier_EA=E * model.pier.area,
-        pier_EI=E * model.pier.inertia,
-        pier_elements=model.pier_elements,
+        pier_EA=E * pier_area,
+        pier_EI=E * pier_inertia,
+        pier_elements=config.pier_elements,
         pier_base="spring",
         K_r=10.0**config.log10_K_r,
     )
