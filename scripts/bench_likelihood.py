@@ -24,6 +24,7 @@ import platform
 import statistics
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import torch
@@ -54,21 +55,31 @@ def dense_torch(y: torch.Tensor, eta: torch.Tensor, x: torch.Tensor) -> float:
     return float(-0.5 * (z.square().sum() + log_det + cov.shape[0] * np.log(2.0 * np.pi)))
 
 
-def median_seconds(fn: Callable[[], object], repeats: int) -> tuple[float, object]:
-    """Median wall time over ``repeats`` calls after one warm-up call, and the last result."""
+def median_seconds(fn: Callable[[], object], repeats: int) -> tuple[float, float, object]:
+    """Median wall and CPU seconds over ``repeats`` calls after a warm-up call; last result."""
     result = fn()
-    times = []
+    wall, cpu = [], []
     for _ in range(repeats):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         result = fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), result
+        wall.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - start_cpu)
+    return statistics.median(wall), statistics.median(cpu), result
 
 
-def bench_size(
-    label: str, n_loads: int, args: argparse.Namespace
-) -> list[tuple[str, str, float, float, float]]:
-    """Rows ``(size, method, seconds per call, seconds per vector, value)`` for one data size."""
+@dataclass
+class Row:
+    """One line of the table: median seconds per parameter vector (wall and CPU)."""
+
+    size: str
+    method: str
+    wall: float
+    cpu: float
+    value: float
+
+
+def bench_size(label: str, n_loads: int, args: argparse.Namespace) -> list[Row]:
+    """Rows (a) to (d) for `n_loads` load cases of 351 points (no (d) for one load case)."""
     rng = np.random.default_rng(args.seed)
     x = np.round(35.0 + 0.1 * np.arange(351), 10)
     eta = 50.0 * np.sin(x[None, :] / 3.0 + rng.uniform(0, 6, (n_loads, 1)))
@@ -77,24 +88,34 @@ def bench_size(
     size = f"{label} ({n_loads} x 351 = {n_loads * 351} points)"
 
     def ours(e: torch.Tensor, s: object, ell: object) -> torch.Tensor:
-        return torchshm.log_likelihood(
-            yt, e, xt, "matern32", s, ell, sigma_m=SIGMA_M, sigma_e=SIGMA_E
-        )
+        return torchshm.log_likelihood(yt, e, xt, "matern32", s, ell, SIGMA_M, SIGMA_E)
 
-    rows = []
-    t, v = median_seconds(lambda: naive_scipy(y, eta, x), args.slow_repeats)
-    rows.append((size, "(a) scipy `multivariate_normal.logpdf`, dense", t, t, v))
-    t, v = median_seconds(lambda: dense_torch(yt, etat, xt), args.slow_repeats)
-    rows.append((size, "(b) torch dense Cholesky", t, t, v))
-    t, v = median_seconds(lambda: float(ours(etat, SIGMA_A, LENGTH)), args.repeats)
-    rows.append((size, "(c) `torchshm.log_likelihood`", t, t, v))
+    cases: list[tuple[str, Callable[[], object], int, int]] = [
+        (
+            "(a) scipy `multivariate_normal.logpdf`, dense",
+            lambda: naive_scipy(y, eta, x),
+            args.slow_repeats,
+            1,
+        ),
+        ("(b) torch dense Cholesky", lambda: dense_torch(yt, etat, xt), args.slow_repeats, 1),
+        ("(c) `torchshm.log_likelihood`", lambda: ours(etat, SIGMA_A, LENGTH), args.repeats, 1),
+    ]
     if n_loads > 1:
         batch = etat.expand(BATCH, -1, -1)
         s, ell = torch.full((BATCH,), SIGMA_A), torch.full((BATCH,), LENGTH)
-        t, v = median_seconds(lambda: ours(batch, s, ell), max(3, args.repeats // 4))
-        rows.append(
-            (size, f"(d) `torchshm.log_likelihood`, batch of {BATCH}", t, t / BATCH, float(v[0]))
+        cases.append(
+            (
+                f"(d) `torchshm.log_likelihood`, batch of {BATCH}",
+                lambda: ours(batch, s, ell),
+                max(3, args.repeats // 4),
+                BATCH,
+            )
         )
+    rows = []
+    for method, fn, repeats, vectors in cases:
+        wall, cpu, value = median_seconds(fn, repeats)
+        first = float(torch.as_tensor(value, dtype=torch.float64).reshape(-1)[0])
+        rows.append(Row(size, method, wall / vectors, cpu / vectors, first))
     return rows
 
 
@@ -107,19 +128,22 @@ def main() -> None:
     rows = bench_size("C1", 11, args) + bench_size("B", 1, args)
     print(
         f"torch {torch.__version__} ({torch.get_num_threads()} threads), numpy {np.__version__}, "
-        f"{platform.processor() or platform.machine()}; median of {args.repeats} calls "
-        f"({args.slow_repeats} for (a) and (b)) after one warm-up.\n"
+        f"{platform.machine()}; median of {args.repeats} calls ({args.slow_repeats} for (a) and "
+        f"(b), {max(3, args.repeats // 4)} for (d)) after one warm-up; times per parameter vector."
+        "\n"
     )
-    print(
-        "| size | method | median time [ms] | per parameter vector [ms] | (a) ÷ this, per vector |"
-    )
-    print("| --- | --- | ---: | ---: | ---: |")
-    naive = {}
-    for size, method, t, per, _ in rows:
-        naive.setdefault(size, per)
-        print(f"| {size} | {method} | {1e3 * t:.4g} | {1e3 * per:.4g} | {naive[size] / per:.4g}x |")
-    spread = max(abs(v - rows[0][4]) / abs(rows[0][4]) for *_, v in rows if _[0] == rows[0][0])
-    print(f"\nLargest relative difference between the methods' values (C1): {spread:.1e}")
+    print("| size | method | wall [ms] | CPU [ms] | (a) ÷ this, wall | (a) ÷ this, CPU |")
+    print("| --- | --- | ---: | ---: | ---: | ---: |")
+    naive: dict[str, Row] = {}
+    for row in rows:
+        ref = naive.setdefault(row.size, row)
+        print(
+            f"| {row.size} | {row.method} | {1e3 * row.wall:.4g} | {1e3 * row.cpu:.4g} "
+            f"| {ref.wall / row.wall:.4g}x | {ref.cpu / row.cpu:.4g}x |"
+        )
+    for size, ref in naive.items():
+        spread = max(abs(r.value - ref.value) / abs(ref.value) for r in rows if r.size == size)
+        print(f"\n{size}: largest relative difference from (a)'s value: {spread:.1e}")
 
 
 if __name__ == "__main__":

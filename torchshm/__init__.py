@@ -19,6 +19,7 @@ _EXPORTS: dict[str, str] = {
     "Measurements": "torchshm.data",
     "load_measurements": "torchshm.data",
     "KERNELS": "torchshm.kernels",
+    "get_kernel": "torchshm.kernels",
     "log_likelihood": "torchshm.likelihood",
     "Problem": "torchshm.likelihood",
     "Uniform": "torchshm.priors",

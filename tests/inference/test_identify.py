@@ -11,7 +11,7 @@ import warnings
 
 import numpy as np
 import pytest
-from inference_models import linear_gaussian_answer, linear_gaussian_problem
+from inference_models import LinearModel, linear_gaussian_answer, linear_gaussian_problem
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 from torchshm import identify
@@ -119,3 +119,35 @@ def test_emcee_tensorboard_running_marginals(emcee_run) -> None:
 def test_unknown_method_is_refused() -> None:
     with pytest.raises(ValueError, match="unknown method 'nuts'"):
         identify(linear_gaussian_problem(), "nuts")
+
+
+def test_vbmc_out_of_budget_is_flagged_and_warned() -> None:
+    with pytest.warns(RuntimeWarning, match="did not converge"):
+        post = identify(linear_gaussian_problem(), "vbmc", seed=1, max_fun_evals=30, display="off")
+    assert not post.converged
+    assert post.diagnostics["convergence_status"] == "no"
+    assert post.n_model_evaluations <= 30
+
+
+class _FailingModel(LinearModel):
+    """Raises for p0 < -0.3: a model run that crashes, far from the posterior (p0 ~ 1.3)."""
+
+    def __call__(self, theta_p):
+        if bool((theta_p[..., 0] < -0.3).any()):
+            raise RuntimeError("solver diverged")
+        return super().__call__(theta_p)
+
+
+@pytest.mark.parametrize("method", ["vbmc", "emcee"])
+def test_failed_model_runs_do_not_end_the_study(method: str, answer) -> None:
+    problem = linear_gaussian_problem(model=_FailingModel())
+    options = {"display": "off"} if method == "vbmc" else {"n_walkers": 16, "n_steps": 300, "burn": 150}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        post = identify(problem, method, seed=2, **options)
+    assert post.diagnostics["n_failed_evaluations"] > 0
+    if method == "vbmc":
+        assert any("solver diverged" in str(w.message) for w in caught)
+        mean, cov, _ = answer
+        _check_moments(post, mean, cov)
+    assert abs(post.summary()["p0"].mean - 1.3) < 0.2

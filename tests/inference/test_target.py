@@ -28,6 +28,8 @@ def test_point_log_round_trip_skips_torn_lines_and_other_problems(tmp_path) -> N
     with open(log.path, "a") as fh:
         fh.write('{"names": ["a", "b"], "theta": [5.0')  # torn by a kill
     assert np.array_equal(log.read(), [[1.0, 2.0], [3.0, 4.0]])
+    log.append(np.array([[7.0, 8.0]]))  # a new line after the torn one stays readable
+    assert np.array_equal(PointLog(log.path, ["a", "b"]).read(), [[1.0, 2.0], [3.0, 4.0], [7.0, 8.0]])
 
 
 def test_failures_are_imputed_for_vbmc_and_rejected_for_emcee() -> None:

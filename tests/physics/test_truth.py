@@ -14,7 +14,7 @@ from torchshm.physics.truth import Crack, TruthConfig, deck_sections, gauge_weig
 
 #: the truth with every refinement switched off, meshed finer than the model over 45–55 m
 PLAIN = TruthConfig(
-    fine_pitch=0.05, fine_start=45.0, fine_end=55.0, haunch_depth=0.0, zones=(), cracks=(),
+    fine_pitch=0.05, fine_start=45.0, fine_end=55.0, haunch_depth=0.0, pier_flare=0.0, zones=(), cracks=(),
     gauge_length=0.0, load_spread=0.0,
 )
 

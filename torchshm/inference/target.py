@@ -2,11 +2,12 @@
 
 :class:`LogJointTarget` wraps ``problem.log_joint``. Every evaluation goes through the problem
 (and so through its evaluation store, where the model outputs of all load cases are kept).
-Each point the method asked for is appended, as soon as its value exists, to a small *point
-log* next to the store (:class:`PointLog`), so a later run on the same store can hand the
+Each point the method asks for is appended, before it is evaluated, to a small *point log*
+next to the store (:class:`PointLog`), so a later run on the same store can hand the
 previous run's points to the method again without a new model evaluation.
 
-A failed model run gives a non-finite log joint inside the support. emcee treats such a point
+A failed model run gives a non-finite log joint inside the support (a model that raises is
+caught here when no store caught it: the point's log joint is then NaN). emcee treats such a point
 as having zero density (the proposal is rejected). PyVBMC refuses non-finite values, so for
 VBMC the point gets the lowest log joint observed so far (a pessimistic imputation), and the run
 goes on; every failure is counted and reported in the posterior's diagnostics.
@@ -37,9 +38,11 @@ def store_path(problem: Any) -> Path | None:
 class PointLog:
     """Append-only record of the parameter vectors evaluated on one store.
 
-    One JSON line per evaluated point, ``{"names": [...], "theta": [...]}``, written and flushed
-    when the point's log joint is known; a run killed at any moment leaves a valid file (a torn
-    last line is skipped on reading). Several processes may append to the same file.
+    One JSON line per point, ``{"names": [...], "theta": [...]}``, written and flushed *before*
+    the point is evaluated: a run killed at any moment leaves every point it asked for in the
+    file (a torn last line is skipped on reading). Rerun through the store, a finished point
+    costs no model call, and a point killed in flight is evaluated then. A point already in the
+    file is not written again. Several processes may append to the same file.
 
     Args:
         path: the file, conventionally ``<store>.points.jsonl`` (see :func:`point_log_for`).
@@ -49,24 +52,34 @@ class PointLog:
     def __init__(self, path: str | Path, names: list[str]) -> None:
         self.path = Path(path)
         self.names = list(names)
+        self._seen: set[tuple[float, ...]] | None = None
 
     def append(self, theta: np.ndarray) -> None:
-        """Append the points ``theta`` (`N x D`)."""
-        lines = "".join(
-            json.dumps({"names": self.names, "theta": [float(v) for v in row]}) + "\n"
-            for row in np.atleast_2d(theta)
-        )
-        with open(self.path, "a", encoding="utf-8") as fh:
-            fh.write(lines)
-            fh.flush()
+        """Append the points ``theta`` (`N x D`) that the file does not hold yet."""
+        if self._seen is None:
+            self.read()
+        assert self._seen is not None
+        lines = []
+        for row in np.atleast_2d(theta):
+            key = tuple(float(v) for v in row)
+            if key not in self._seen:
+                self._seen.add(key)
+                lines.append(json.dumps({"names": self.names, "theta": list(key)}) + "\n")
+        if lines:
+            with open(self.path, "a+b") as fh:
+                if fh.tell() > 0:
+                    fh.seek(-1, os.SEEK_END)
+                    if fh.read(1) != b"\n":  # end a line torn by a killed process
+                        lines.insert(0, "\n")
+                fh.write("".join(lines).encode("utf-8"))
+                fh.flush()
 
     def read(self) -> np.ndarray:
         """Distinct recorded points of problems with the same names, in first-seen order (`M x D`)."""
-        if not self.path.exists():
-            return np.zeros((0, len(self.names)))
         rows: list[tuple[float, ...]] = []
         seen: set[tuple[float, ...]] = set()
-        for line in self.path.read_text(encoding="utf-8").splitlines():
+        text = self.path.read_text(encoding="utf-8") if self.path.exists() else ""
+        for line in text.splitlines():
             try:
                 item = json.loads(line)
             except json.JSONDecodeError:
@@ -77,6 +90,7 @@ class PointLog:
             if row not in seen:
                 seen.add(row)
                 rows.append(row)
+        self._seen = seen
         return np.array(rows, dtype=np.float64).reshape(-1, len(self.names))
 
 
@@ -109,16 +123,27 @@ class LogJointTarget:
     X: list[np.ndarray] = field(default_factory=list)
     y: list[float] = field(default_factory=list)
     n_failed: int = 0
+    first_error: str | None = None
 
     def evaluate(self, theta: np.ndarray) -> np.ndarray:
         """Log joint of a batch ``theta`` (`N x D`) -> `N`, with failures handled as above."""
         theta = np.atleast_2d(np.asarray(theta, dtype=np.float64))
-        raw = np.asarray(self.problem.log_joint(theta), dtype=np.float64).reshape(-1)
         if self.point_log is not None:
             self.point_log.append(theta)
+        raw = self._log_joint(theta)
         self.X.extend(theta)
         self.y.extend(raw.tolist())
         return self._clean(theta, raw)
+
+    def _log_joint(self, theta: np.ndarray) -> np.ndarray:
+        """``problem.log_joint`` of `N x D` points; a point whose evaluation raises gives NaN."""
+        try:
+            return np.asarray(self.problem.log_joint(theta), dtype=np.float64).reshape(-1)
+        except Exception as exc:  # a model run that raised (no store to record it)
+            if theta.shape[0] == 1:
+                self.first_error = self.first_error or f"{type(exc).__name__}: {exc}"
+                return np.full(1, np.nan)
+            return np.concatenate([self._log_joint(row[None, :]) for row in theta])
 
     def __call__(self, theta: np.ndarray) -> float:
         """Log joint of one point (`D` or `1 x D`) as a float: PyVBMC's target."""
@@ -139,7 +164,8 @@ class LogJointTarget:
             if finite.size == 0:
                 raise RuntimeError(
                     "the log joint is not finite at any point evaluated so far (every model run "
-                    "failed or lies outside the support); see the evaluation store for the errors"
+                    "failed or lies outside the support); first error: "
+                    f"{self.first_error or 'see the evaluation store'}"
                 )
             out[bad] = finite.min()
         return out

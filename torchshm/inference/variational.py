@@ -167,7 +167,8 @@ def _posterior(
     if target.n_failed:
         warnings.warn(
             f"{target.n_failed} log-joint evaluations failed (model runs that did not finish); "
-            "they were given the lowest log joint seen; see the evaluation store for errors",
+            f"they were given the lowest log joint seen; first error: "
+            f"{target.first_error or 'see the evaluation store'}",
             RuntimeWarning, stacklevel=3,
         )
     draw_vp = copy.deepcopy(vp)

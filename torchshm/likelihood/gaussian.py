@@ -20,8 +20,10 @@ from torchshm.kernels import Kernel, get_kernel
 from torchshm.kernels.base import as_float64
 from torchshm.likelihood.cholesky import cholesky_with_jitter
 
-#: largest covariance batch [bytes] factorised at once; bigger batches are split in chunks
-CHUNK_BYTES = 2**25
+#: largest covariance buffer [bytes] factorised at once (at least one parameter vector per
+#: chunk): bigger batches are split, which bounds memory and avoids the page faults and cache
+#: misses of very large temporary buffers
+CHUNK_BYTES = 2**22
 LOG_2PI = math.log(2.0 * math.pi)
 
 

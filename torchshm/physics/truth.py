@@ -6,16 +6,21 @@ does, so that the model discrepancy is physical rather than drawn from a Gaussia
 
 - haunches: the deck thickens linearly towards each pier (stiffer, and a larger distance from
   the axis to the bottom fibre);
+- flared pier heads: the piers deepen towards the deck, as V-shaped piers do, so they restrain
+  the deck's rotation more than the model's prismatic pier;
 - pavement and tram-rail zones: stretches with a higher bending stiffness (and a slightly lower
   neutral axis relative to the bottom face);
+- smeared cracking around the span centres: stretches of lower bending stiffness (lost tension
+  stiffening) with a slightly raised neutral axis;
 - cracks in the most strained sagging zones: short zones (decimetres) of reduced stiffness and
   a raised neutral axis, giving local strain peaks;
 - wheel prints: each axle load is spread uniformly over a length (print plus dispersion to the
   deck axis) instead of acting at a point;
 - the fibre averages the strain over its gauge length (0.2 m) around each reading point;
-- a finer mesh (0.025 m) over the fibre.
+- a finer mesh (0.025 m) over the fibre and more elements per pier.
 
-Everything else (geometry, piers, supports, parameters E_c and K_r) is the model's.
+Everything else (span lengths, strip width, pier positions and heights, supports, the truck and
+the parameters E_c and K_r) is the model's.
 """
 
 from __future__ import annotations
@@ -72,7 +77,7 @@ class TruthConfig:
         pier_flare: extra pier depth (along the bridge) where the pier meets the deck [m].
         pier_flare_length: length of the linear flare taper down the pier [m].
         pier_elements: frame elements per pier.
-        zones: pavement and rail zones.
+        zones: pavement and rail zones (stiffer) and smeared cracking zones (softer).
         cracks: crack zones.
         gauge_length: length over which the fibre averages the strain [m] (0: point values).
         load_spread: length over which each axle load is spread [m] (0: point loads).
@@ -84,16 +89,21 @@ class TruthConfig:
     fine_pitch: float = 0.025
     fine_start: float = 34.8
     fine_end: float = 70.2
-    haunch_depth: float = 0.1
+    haunch_depth: float = 0.08
     haunch_length: float = 2.0
-    pier_flare: float = 0.0
+    pier_flare: float = 0.12
     pier_flare_length: float = 1.5
     pier_elements: int = 8
     zones: tuple[Zone, ...] = (
-        Zone(30.0, 38.6, 1.06, 1.02),
-        Zone(41.0, 46.4, 1.12, 1.04),
-        Zone(55.8, 61.0, 1.10, 1.03),
-        Zone(66.2, 75.0, 1.05, 1.02),
+        # pavement and tram-rail stretches: stiffer, neutral axis slightly lower
+        Zone(30.0, 38.6, 1.04, 1.02),
+        Zone(41.0, 46.4, 1.08, 1.03),
+        Zone(55.8, 61.0, 1.07, 1.02),
+        Zone(66.2, 75.0, 1.04, 1.01),
+        # smeared cracking (lost tension stiffening) around the span centres, in sagging
+        Zone(34.0, 39.0, 0.90, 1.03),
+        Zone(48.5, 53.5, 0.90, 1.03),
+        Zone(63.0, 68.0, 0.90, 1.03),
     )
     cracks: tuple[Crack, ...] = (
         Crack(36.1, 0.3, 0.85, 1.10),

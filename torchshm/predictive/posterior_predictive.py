@@ -38,7 +38,7 @@ from torchshm.predictive.selection import (
 #: the emulator variance counts when its largest value exceeds this share of ``sigma_e**2``
 SURROGATE_VARIANCE_RATIO = 0.01
 #: largest number of stored evaluations the emulator is trained on (a random subset beyond)
-MAX_TRAINING_POINTS = 1000
+MAX_TRAINING_POINTS = 400
 
 Positions = Literal["measured", "model"]
 

@@ -68,6 +68,11 @@ class RunRecord:
             converged=bool(raw.get("converged", False)),
         )
 
+    def held_out_loads(self) -> list[float]:
+        """Predicted load cases that were not used for inference, in prediction order."""
+        return [float(r["load"]) for r in self.predictive
+                if not any(abs(r["load"] - w) < 1e-6 for w in self.inference_loads)]
+
     def scores(self, loads: list[float] | None = None, held_out: bool | None = None) -> dict[str, float]:
         """Scores pooled over some predicted load cases (weighted by their points).
 
@@ -97,7 +102,8 @@ def read_sweep(sweep_dir: str | Path) -> list[RunRecord]:
     return [RunRecord.from_json(p) for p in paths]
 
 
-def _order(records: list[RunRecord], key: Callable[[RunRecord], Any], order: list[Any] | None) -> list[RunRecord]:
+def order_records(records: list[RunRecord], key: Callable[[RunRecord], Any], order: list[Any] | None) -> list[RunRecord]:
+    """``records`` sorted by the position of ``key(record)`` in ``order`` (unknown keys last)."""
     if order is None:
         return list(records)
     rank = {v: i for i, v in enumerate(order)}
