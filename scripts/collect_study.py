@@ -9,7 +9,8 @@ the saved variational posterior; for Fig. 9 the posterior predictive of load 55.
 stored model outputs, with no new model evaluation), and writes into the sweep folder:
 
 - ``study_<b|c>.md``: the tables (B: 8, 9, 10; C: 8-like summary, 12, 13) and run statistics;
-- ``bayes_factors.csv`` (B), ``figure9.png`` (B) or ``figure11.png`` (C);
+- ``bayes_factors.csv`` (B), ``figure7.png`` and ``figure9.png`` (B) or ``figure11.png`` (C);
+  Fig. 7 compares the emulator with the model, so it costs 100 model evaluations;
 - ``hparams/``: TensorBoard hparams view (kernel, resolution against ELBO, coverage, KL).
 """
 
@@ -90,6 +91,44 @@ def figure9(records: list[study.RunRecord], settings: dict[Path, dict], path: Pa
     return path
 
 
+def figure7(rec: study.RunRecord, settings: dict[str, Any], path: Path, loads: list[float]) -> str:
+    """Emulator against the model on and outside the 99 % region (Fig. 7); evaluates the model."""
+    from torchshm.predictive import emulator_check
+
+    post = torchshm.load_posterior(rec.path / "posterior.nc")
+    check = emulator_check(post, loads, problem=rebuild_problem(rec, post, settings))
+    fig, axes = plt.subplots(1, 2, figsize=(9, 4), constrained_layout=True)
+    groups = (("on the boundary of the 99 % region", check.boundary_exact, check.boundary_emulated),
+              ("outside the 99 % region", check.outside_exact, check.outside_emulated))
+    for ax, (title, exact, emulated) in zip(axes, groups):
+        ax.plot(exact.flatten(), emulated.flatten(), ".", ms=1, alpha=0.4)
+        ends = [float(exact.min()), float(exact.max())]
+        ax.plot(ends, ends, "k-", lw=0.7)
+        ax.set_title(f"{title}\nmax |error| {float((emulated - exact).abs().max()):.3g} µε", fontsize="medium")
+        ax.set_xlabel("model strain [µε]")
+    axes[0].set_ylabel("emulated strain [µε]")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return (f"{rec.kernel}, loads {', '.join(f'{v:g}' for v in loads)} m, {check.boundary_theta.shape[0]} draws per "
+            f"group: max |emulator - model| {check.boundary_error:.3g} µε on the boundary of the 99 % region, "
+            f"{check.outside_error:.3g} µε outside it.")
+
+
+def full_resolution_table(records: list[study.RunRecord], settings: dict[Path, dict], load: float) -> str:
+    """Table 13 at every fibre position (0.1 m), whatever the run's resolution (no model run)."""
+    from torchshm.predictive import predictive_metrics
+
+    lines = ["| run | R² | MSE [µε²] | mean C.I. width [µε] | coverage |", "|---|---|---|---|---|"]
+    for rec in records:
+        post = torchshm.load_posterior(rec.path / "posterior.nc")
+        problem = rebuild_problem(rec, post, settings[rec.path])
+        pred = posterior_predictive(post, [load], n=2000, seed=0, problem=problem, positions="model")
+        full = dict(settings[rec.path], data={**settings[rec.path]["data"], "resolution": None})
+        m = predictive_metrics(pred, measurements_of(full), [load])
+        lines.append(f"| {rec.resolution:g} m | {m.r2:.3f} | {m.mse:.3f} | {m.mean_width:.3f} | {100 * m.coverage:.2f} % |")
+    return "\n".join(lines)
+
+
 def figure11(records: list[study.RunRecord], path: Path) -> Path:
     """95 % posterior intervals of each parameter against the resolution (Fig. 11)."""
     fig, axes = plt.subplots(1, len(study.PARAMETERS), figsize=(13, 3.2), constrained_layout=True)
@@ -112,7 +151,11 @@ def figure11(records: list[study.RunRecord], path: Path) -> Path:
 
 def write_hparams(records: list[study.RunRecord], out: Path) -> Path:
     """One TensorBoard hparams entry per run: kernel and resolution against the scores."""
+    import shutil
+
     from torch.utils.tensorboard import SummaryWriter
+
+    shutil.rmtree(out, ignore_errors=True)  # a second collection replaces the first
 
     for rec in records:
         held = rec.scores(held_out=True)
@@ -142,10 +185,13 @@ def collect(sweep_dir: Path, which: str) -> str:
         bf = study.evidence_table(records, label)
         bf.to_csv(sweep_dir / "bayes_factors.csv")
         figure9(records, settings, sweep_dir / "figure9.png")
+        ref = next(r for r in records if r.kernel == "matern32")
+        check = figure7(ref, settings[ref.path], sweep_dir / "figure7.png", [55.1, 70.4])
         parts = [("Table 8: posterior mean [2.5 %, 97.5 %]", study.parameter_table(records, label)),
                  ("Table 9: log10 Bayes factors, row over column", bf.to_markdown()),
                  ("Table 10: coverage of the 95 % predictive interval", study.coverage_table(records, label)),
-                 ("KL divergence", study.kl_table(records, label))]
+                 ("KL divergence", study.kl_table(records, label)),
+                 ("Emulator check (Fig. 7)", check)]
     else:
         records = sorted(records, key=lambda r: float(r.resolution or 0.0))
         label = lambda r: f"{r.resolution:g} m"  # noqa: E731
@@ -153,7 +199,10 @@ def collect(sweep_dir: Path, which: str) -> str:
         load = records[0].held_out_loads()[0]
         parts = [("Posterior mean [2.5 %, 97.5 %] (Fig. 11)", study.parameter_table(records, label)),
                  ("Table 12: KL divergence", study.kl_table(records, label)),
-                 (f"Table 13: prediction of load {load:g} m", study.prediction_table(records, label, load))]
+                 (f"Table 13: prediction of load {load:g} m at the run's resolution",
+                  study.prediction_table(records, label, load)),
+                 (f"Table 13 at every 0.1 m position: load {load:g} m",
+                  full_resolution_table(records, settings, load))]
     parts.append(("Runs", study.run_table(records, label)))
     write_hparams(records, sweep_dir / "hparams")
     text = "\n\n".join(f"### {title}\n\n{table}" for title, table in parts) + "\n"

@@ -24,7 +24,8 @@ def test_study_a_smoke(tmp_path: Path) -> None:
     assert result.returncode == 0, result.stderr[-2000:]
     out = tmp_path / "runs" / "study_a"
     for name in ("table5.csv", "table5.md", "fig4_corner.png", "fig5_emcee_convergence.png",
-                 "fig6_vbmc_convergence.png", "study_a.json", "study_a.md", "emcee_chain.h5"):
+                 "fig6_vbmc_convergence.png", "study_a.json", "study_a.md", "emcee_chain.h5",
+                 "vbmc_posterior.nc", "emcee_posterior.nc"):
         assert (out / name).is_file(), name
     with open(out / "table5.csv") as f:
         rows = list(csv.DictReader(f))

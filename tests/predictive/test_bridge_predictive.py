@@ -55,11 +55,11 @@ def test_fixed_posterior_matches_exact(bridge_problem: torchshm.Problem) -> None
     wide = box[:, 0] + qmc.Sobol(2, seed=0).random(16) * (box[:, 1] - box[:, 0])
     problem.model_outputs(np.clip(np.vstack([near, wide]), problem.hard_bounds[:2, 0], problem.hard_bounds[:2, 1]))
     problem.model.calls = 0
-    pred = posterior_predictive(post, LOADS, n=1000, seed=0)
+    pred = posterior_predictive(post, LOADS, n=500, seed=0)
     assert problem.model.calls == 0
     assert not pred.surrogate_variance_used and pred.n_training == 76
-    exact = exact_predictive(post, LOADS, n=1000, seed=0)
-    assert problem.model.calls == 1000
+    exact = exact_predictive(post, LOADS, n=500, seed=0)
+    assert problem.model.calls == 500
     assert_close(pred, exact)
 
 

@@ -7,7 +7,7 @@ import pytest
 import torchshm
 from linear_gaussian import TwoShapeModel, make_problem, synthetic_data
 from torchshm.predictive import exact_predictive, posterior_predictive
-import torchshm.predictive.posterior_predictive as pp
+import torchshm.predictive.predictive as pp
 from doubles_predictive import linear_setup
 
 
@@ -18,7 +18,9 @@ def test_long_runs_train_on_a_subset(monkeypatch: pytest.MonkeyPatch) -> None:
     assert pred.n_training == 25
 
 
+@pytest.mark.filterwarnings("ignore:emcee. the chain after burn-in:RuntimeWarning")
 def test_emcee_posterior() -> None:
+    """A short chain (its autocorrelation warning is expected): the emulator still applies."""
     model = TwoShapeModel()
     data = synthetic_data(model, seed=1)
     problem = make_problem("matern32", 1.0, data, model)

@@ -50,7 +50,7 @@ def corner_plot(
     fig = None
     handles = []
     truth_row = [None if truths is None else truths.get(n) for n in names]
-    ranges = _common_ranges(list(samples.values()))
+    ranges = _common_ranges(list(samples.values()), truth_row)
     for i, (label, s) in enumerate(samples.items()):
         s = np.asarray(s, dtype=np.float64)
         s = s[:: max(1, s.shape[0] // max_points)]
@@ -70,10 +70,13 @@ def corner_plot(
     return path
 
 
-def _common_ranges(sets: list[np.ndarray]) -> list[tuple[float, float]]:
-    """Per-column plotting range covering the 0.1 %-99.9 % quantiles of every set."""
+def _common_ranges(sets: list[np.ndarray], truths: Sequence[float | None]) -> list[tuple[float, float]]:
+    """Per-column plotting range covering the 0.1 %-99.9 % quantiles of every set and the truth."""
     lo = np.min([np.quantile(s, 0.001, axis=0) for s in sets], axis=0)
     hi = np.max([np.quantile(s, 0.999, axis=0) for s in sets], axis=0)
+    for i, t in enumerate(truths):
+        if t is not None:
+            lo[i], hi[i] = min(lo[i], t), max(hi[i], t)
     pad = 0.05 * np.maximum(hi - lo, 1e-12)
     return [(float(a - p), float(b + p)) for a, b, p in zip(lo, hi, pad)]
 

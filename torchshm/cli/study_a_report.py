@@ -9,7 +9,9 @@ Files written into the study folder:
   against the number of samples;
 - ``fig6_vbmc_convergence.png``: VBMC mean and 95 % interval of each iteration's variational
   posterior against the number of evaluations;
-- ``study_a.json`` / ``study_a.md``: evaluations, stabilisation points, wall times, diagnostics.
+- ``study_a.json`` / ``study_a.md``: evaluations, stabilisation points, wall times, diagnostics;
+- ``vbmc_posterior.nc``, ``emcee_posterior.nc`` (``torchshm.load_posterior``) and
+  ``emcee_chain.h5`` (the full chain, emcee's HDF5 backend).
 """
 
 from __future__ import annotations
@@ -131,6 +133,8 @@ def write_report(vbmc_run: Any, emcee_run: Any, chain: np.ndarray, attrs: Mappin
                  budget: Any, out_dir: Path) -> dict[str, Any]:
     """Every output of study A (see the module docstring); returns the numbers."""
     vbmc, emcee = vbmc_run.posterior, emcee_run.posterior
+    vbmc.save(out_dir / "vbmc_posterior.nc")
+    emcee.save(out_dir / "emcee_posterior.nc")
     rows = compare_marginals(vbmc.names, emcee.samples, vbmc.samples)
     write_table5(rows, out_dir)
     numbers: dict[str, Any] = {

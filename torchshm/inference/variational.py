@@ -106,10 +106,10 @@ def run_vbmc(
     budget = int(options.get("max_fun_evals", 50 * (2 + len(names))))
     settings = (start or StartSettings()).resolved(len(names), budget)
     calls_before_search = int(problem.n_model_evaluations)
-    find_start(target, plausible, hard, settings, seed)
+    first = find_start(target, plausible, hard, settings, seed)
     n_search = int(problem.n_model_evaluations) - calls_before_search  # charged to the budget
     n_initial = int(options.get("fun_eval_start", 10 * -(-(len(names) + 1) // 10)))
-    x0, precomputed = vbmc_start(target, n_initial, float(settings.keep_threshold or 0))
+    x0, precomputed = vbmc_start(target, first, n_initial, float(settings.keep_threshold or 0))
 
     trace = RunTrace(log_dir, step_key="iteration")
     n_pre = 0 if precomputed is None else int(precomputed[0].shape[0])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from torchshm.predictive.bayes import JEFFREYS, BayesFactors, bayes_factors, jeffreys_label
+from torchshm.predictive.check import EmulatorCheck, emulator_check
 from torchshm.predictive.draws import predictive_draws
 from torchshm.predictive.emulator import fit_emulator
 from torchshm.predictive.kl import KLEstimate, kl_divergence
@@ -14,17 +15,19 @@ from torchshm.predictive.metrics import (
     predictive_metrics,
     r2_score,
 )
-from torchshm.predictive.posterior_predictive import exact_predictive, posterior_predictive
+from torchshm.predictive.predictive import exact_predictive, posterior_predictive, stored_emulator
 from torchshm.predictive.result import PredictiveResult
 
 __all__ = [
     "JEFFREYS",
     "BayesFactors",
+    "EmulatorCheck",
     "KLEstimate",
     "PredictiveMetrics",
     "PredictiveResult",
     "bayes_factors",
     "coverage",
+    "emulator_check",
     "exact_predictive",
     "fit_emulator",
     "jeffreys_label",
@@ -35,4 +38,5 @@ __all__ = [
     "predictive_draws",
     "predictive_metrics",
     "r2_score",
+    "stored_emulator",
 ]

@@ -34,6 +34,7 @@ from torchshm.predictive.selection import (
     problem_of,
     random_streams,
 )
+from torchshm.surrogate import Surrogate
 
 #: the emulator variance counts when its largest value exceeds this share of ``sigma_e**2``
 SURROGATE_VARIANCE_RATIO = 0.01
@@ -81,13 +82,8 @@ def posterior_predictive(
     if include_surrogate_variance not in ("auto", True, False):
         raise ValueError(f"include_surrogate_variance must be 'auto', True or False, got {include_surrogate_variance!r}")
     problem = problem_of(post, problem)
-    loads_idx = load_index(problem.model, loads)
-    pos_idx, x = position_index(problem, positions)
-    loads_t = _loads_tensor(problem.model, loads_idx)
-    theta_train, outputs = _training_data(problem, loads_idx, pos_idx, seed)
-    options = {"transform": transform_options(problem.model, problem.physical_names),
-               "names": list(problem.physical_names), **(emulator_options or {})}
-    emulator = fit_emulator(theta_train, outputs, x, loads_t, **options)
+    emulator = stored_emulator(problem, loads, positions, seed, emulator_options)
+    x, loads_t = emulator.x, emulator.loads
     streams = random_streams(seed)
     theta = np.asarray(post.sample(n, streams.theta), dtype=np.float64)
     theta_p, sigma_a, length = parameter_columns(problem, list(post.names), theta)
@@ -103,7 +99,8 @@ def posterior_predictive(
         eta = eta + sd * torch.randn(eta.shape, generator=streams.emulator, dtype=torch.float64)
     samples = _draw(problem, eta, x, sigma_a, length, streams.noise)
     return PredictiveResult.from_draws(
-        samples, x, loads_t, level, theta, list(post.names), eta, used, max_sd, len(theta_train),
+        samples, x, loads_t, level, theta, list(post.names), eta, used, max_sd,
+        int(emulator.theta_p.shape[0]),
     )
 
 
@@ -140,6 +137,31 @@ def exact_predictive(
     )
 
 
+def stored_emulator(
+    problem: Any,
+    loads: Iterable[float] | float,
+    positions: Positions = "measured",
+    seed: int = 0,
+    emulator_options: dict[str, Any] | None = None,
+) -> Surrogate:
+    """The GP emulator of the problem's stored outputs at ``loads`` and ``positions``.
+
+    Args:
+        problem: the problem whose ``evaluations()`` train the emulator (no model is called).
+        loads, positions, seed, emulator_options: as :func:`posterior_predictive`.
+
+    Returns:
+        A :class:`~torchshm.surrogate.Surrogate` whose ``x`` and ``loads`` are the prediction
+        positions and load cases, trained on at most MAX_TRAINING_POINTS stored evaluations.
+    """
+    loads_idx = load_index(problem.model, loads)
+    pos_idx, x = position_index(problem, positions)
+    theta_train, outputs = _training_data(problem, loads_idx, pos_idx, seed)
+    options = {"transform": transform_options(problem.model, problem.physical_names),
+               "names": list(problem.physical_names), **(emulator_options or {})}
+    return fit_emulator(theta_train, outputs, x, _loads_tensor(problem.model, loads_idx), **options)
+
+
 def _training_data(problem: Any, loads_idx: Tensor, pos_idx: Tensor, seed: int) -> tuple[Tensor, Tensor]:
     """Stored `theta_p` (`M x P`) and outputs (`M x L' x n_x`), at most MAX_TRAINING_POINTS."""
     theta_p, outputs = problem.evaluations()
@@ -147,8 +169,8 @@ def _training_data(problem: Any, loads_idx: Tensor, pos_idx: Tensor, seed: int) 
     outputs = torch.as_tensor(np.asarray(outputs), dtype=torch.float64)
     if theta_p.ndim != 2 or theta_p.shape[0] == 0:
         raise ValueError(
-            "posterior_predictive: the problem holds no stored model evaluations; run inference "
-            "through a Problem (with a store for emcee runs) so that the outputs are kept"
+            "posterior_predictive: the problem holds no stored model evaluations; pass the Problem "
+            "that inference ran on (it keeps its outputs in memory) or one on the run's store"
         )
     if theta_p.shape[0] > MAX_TRAINING_POINTS:
         keep = np.random.default_rng(seed).choice(theta_p.shape[0], MAX_TRAINING_POINTS, replace=False)
