@@ -129,8 +129,11 @@ def full_resolution_table(records: list[study.RunRecord], settings: dict[Path, d
     return "\n".join(lines)
 
 
-def figure11(records: list[study.RunRecord], path: Path) -> Path:
-    """95 % posterior intervals of each parameter against the resolution (Fig. 11)."""
+def figure11(records: list[study.RunRecord], path: Path, truths: dict[str, Any] | None = None) -> Path:
+    """95 % posterior intervals of each parameter against the resolution (Fig. 11).
+
+    ``truths``: attributes ``truth_<name>`` of a synthetic campaign, drawn as dashed lines.
+    """
     fig, axes = plt.subplots(1, len(study.PARAMETERS), figsize=(13, 3.2), constrained_layout=True)
     res = np.array([r.resolution for r in records], dtype=float)
     for ax, (name, unit) in zip(axes, study.PARAMETERS):
@@ -140,6 +143,10 @@ def figure11(records: list[study.RunRecord], path: Path) -> Path:
         mean = np.array([s["mean"] for s in rows])
         lo, hi = np.array([s["q2.5"] for s in rows]), np.array([s["q97.5"] for s in rows])
         ax.errorbar(res, mean, yerr=[mean - lo, hi - mean], fmt="o", capsize=4)
+        truth = (truths or {}).get(f"truth_{name}")
+        if isinstance(truth, (int, float)):
+            ax.axhline(float(truth), color="k", ls="--", lw=0.8, label="truth")
+            ax.legend(frameon=False, fontsize="small")
         ax.set_xscale("log")
         ax.set_xticks(res, [f"{v:g}" for v in res])
         ax.set_xlabel("resolution [m]")
@@ -195,7 +202,7 @@ def collect(sweep_dir: Path, which: str) -> str:
     else:
         records = sorted(records, key=lambda r: float(r.resolution or 0.0))
         label = lambda r: f"{r.resolution:g} m"  # noqa: E731
-        figure11(records, sweep_dir / "figure11.png")
+        figure11(records, sweep_dir / "figure11.png", measurements_of(settings[records[0].path]).attrs)
         load = records[0].held_out_loads()[0]
         parts = [("Posterior mean [2.5 %, 97.5 %] (Fig. 11)", study.parameter_table(records, label)),
                  ("Table 12: KL divergence", study.kl_table(records, label)),

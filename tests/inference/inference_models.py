@@ -73,15 +73,21 @@ class BeamModel:
 
     The span runs from 35 m to 70 m. For a load at ``a`` the simply supported moment is
     reduced by the end moments ``r M_fixed`` with ``r = rho / (rho + 2)`` and spring ratio
-    ``rho = 10**(log10_K_r - 9) * 30 / E_c``; the strain is the moment over ``E_c``.
+    ``rho = 10**((log10_K_r - 9) / decades) * 30 / E_c``; the strain is the moment over
+    ``E_c``. With ``decades = 1`` the springs go from pinned to fixed within about 7 <
+    log10_K_r < 11, leaving a flat plateau below (a trap for any local search); with
+    ``decades = 4`` the transition spans the whole prior range.
     """
 
     names = ["E_c", "log10_K_r"]
 
-    def __init__(self, loads: tuple[float, ...] = tuple(38.0 + 3.0 * k for k in range(11))) -> None:
+    def __init__(
+        self, loads: tuple[float, ...] = tuple(38.0 + 3.0 * k for k in range(11)), decades: float = 4.0
+    ) -> None:
         self.x = torch.round(torch.arange(351, dtype=torch.float64) + 350.0) / 10.0
         self.loads = torch.tensor(loads, dtype=torch.float64)
-        self.identity = "beam-model-v1"
+        self.decades = float(decades)
+        self.identity = f"beam-model-v1-{decades:g}"
 
     def __call__(self, theta_p: torch.Tensor) -> torch.Tensor:
         theta_p = torch.as_tensor(theta_p, dtype=torch.float64)
@@ -91,21 +97,21 @@ class BeamModel:
         a = (self.loads - 35.0)[:, None].clamp(0.5, span - 0.5)
         simple = torch.where(s <= a, s * (span - a) / span, a * (span - s) / span)
         fixed = a * (span - a) / span * 0.5  # uniform end-moment shape, a stand-in
-        rho = 10.0 ** (log_k - 9.0) * 30.0 / e_c
+        rho = 10.0 ** ((log_k - 9.0) / self.decades) * 30.0 / e_c
         r = rho / (rho + 2.0)
         return 1000.0 * (simple - r * fixed) / e_c
 
 
 def beam_problem(
     truth: tuple[float, float, float, float] = (33.4, 9.0, 0.9, 2.0), seed: int = 5,
-    kernel: str = "matern32", store: object = None,
+    kernel: str = "matern32", store: object = None, decades: float = 4.0,
 ) -> Problem:
     """Paper-style 4-parameter problem (E_c, log10_K_r, sigma_a, length) on 11 load cases x 351
     positions = 3,861 synthetic strains from :class:`BeamModel` plus a Matern-3/2 discrepancy."""
     from torchshm import paper_priors
     from torchshm.kernels import get_kernel
 
-    model = BeamModel()
+    model = BeamModel(decades=decades)
     rng = np.random.default_rng(seed)
     eta = model(torch.tensor(truth[:2])).numpy()
     cov = get_kernel(kernel)(model.x, sigma_a=torch.tensor(truth[2]), length=torch.tensor(truth[3]))

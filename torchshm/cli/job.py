@@ -85,7 +85,10 @@ def build_problem(settings: Config, model: Any, measurements: Any, base: Path,
 
     store = None if settings.store is None else resolve_path(settings.store, base)
     if store is not None:
-        store.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            store.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise ValueError(f"store {store}: cannot create its folder ({err.strerror}: {err.filename})") from None
     return torchshm.Problem(
         model,
         measurements.select(settings.data.loads),

@@ -63,12 +63,19 @@ def _iteration_row(vbmc: VBMC, names: list[str], n_precomputed: int, seed: int) 
     return row
 
 
-def _pyvbmc_options(options: dict[str, Any], x0_rows: int, n_initial: int) -> dict[str, Any]:
-    """PyVBMC options: the user's, plus a narrow initial design when ``x0`` cannot fill it."""
+def _pyvbmc_options(options: dict[str, Any], x0_rows: int, n_initial: int, dim: int) -> dict[str, Any]:
+    """PyVBMC options: the user's, with an initial design made of ``x0`` when it is short.
+
+    With at least ``D + 1`` starting points (the best point and its probing star) the initial
+    design is exactly those points (``fun_eval_start``); with fewer, the rest is drawn near the
+    best point (``init_design="narrow"``) rather than in the whole plausible box.
+    """
     opts = dict(options)
-    if 0 < x0_rows < n_initial:
-        # the rest of the initial design is drawn near the best point, not in the whole box
-        opts.setdefault("init_design", "narrow")
+    if 0 < x0_rows < n_initial and "fun_eval_start" not in options:
+        if x0_rows >= dim + 1:
+            opts["fun_eval_start"] = x0_rows
+        else:
+            opts.setdefault("init_design", "narrow")
     return opts
 
 
@@ -115,7 +122,8 @@ def run_vbmc(
     n_pre = 0 if precomputed is None else int(precomputed[0].shape[0])
     vbmc = TracedVBMC(
         target, x0, hard[:, 0], hard[:, 1], plausible[:, 0], plausible[:, 1],
-        options=_pyvbmc_options(options, 0 if x0 is None else x0.shape[0], n_initial), seed=seed,
+        options=_pyvbmc_options(options, 0 if x0 is None else x0.shape[0], n_initial, len(names)),
+        seed=seed,
         precomputed_evaluations=precomputed, initialization_cost=n_search,
         on_iteration=lambda v: trace.log(_iteration_row(v, names, n_pre, seed)),
     )
