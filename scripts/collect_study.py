@@ -8,7 +8,8 @@ Reads every run folder (``run.json``, ``posterior.nc``, and the run's evaluation
 the saved variational posterior; for Fig. 9 the posterior predictive of load 55.1 from the
 stored model outputs, with no new model evaluation), and writes into the sweep folder:
 
-- ``study_<b|c>.md``: the tables (B: 8, 9, 10; C: 8-like summary, 12, 13) and run statistics;
+- ``study_<b|c>.md``: the tables (B: 8, 9, 10, KL, the emulator check; C: 8-like summary, 12,
+  13 at the run's resolution and at every 0.1 m position) and run statistics;
 - ``bayes_factors.csv`` (B), ``figure7.png`` and ``figure9.png`` (B) or ``figure11.png`` (C);
   Fig. 7 compares the emulator with the model, so it costs 100 model evaluations;
 - ``hparams/``: TensorBoard hparams view (kernel, resolution against ELBO, coverage, KL).

@@ -64,13 +64,20 @@ def test_fixed_posterior_matches_exact(bridge_problem: torchshm.Problem) -> None
 
 
 @pytest.mark.slow
+@pytest.mark.filterwarnings("ignore:VBMC did not converge:RuntimeWarning")
 def test_vbmc_posterior_matches_exact() -> None:
-    """A real VBMC posterior with a small budget; the emulator sees only VBMC's evaluations."""
+    """A real VBMC posterior with a small budget; the emulator sees only VBMC's evaluations.
+
+    With 100 evaluations VBMC has explored the whole posterior support (down to log10 K_r = 0,
+    where the strains no longer depend on K_r). In our runs with 60 evaluations, VBMC stopped
+    before it evaluated there, the emulator extrapolated (its sd reached ~0.4 µε and was added)
+    and the bounds differed from the exact ones by up to ~0.2 µε.
+    """
     data = torchshm.synthetic_campaign(0).select([39.8])
     problem = torchshm.Problem(CountingModel(torchshm.bridge705()), data, kernel="matern32")
-    post = torchshm.identify(problem, method="vbmc", seed=0, max_fun_evals=60, display="off", n_samples=5000)
+    post = torchshm.identify(problem, method="vbmc", seed=0, max_fun_evals=100, display="off", n_samples=5000)
     problem.model.calls = 0
     pred = posterior_predictive(post, LOADS, n=2000, seed=0)
-    assert problem.model.calls == 0
+    assert problem.model.calls == 0 and not pred.surrogate_variance_used
     exact = exact_predictive(post, LOADS, n=2000, seed=0)
     assert_close(pred, exact)

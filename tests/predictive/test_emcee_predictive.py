@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 import torchshm
-from linear_gaussian import TwoShapeModel, make_problem, synthetic_data
+from predictive_linear_gaussian import TwoShapeModel, make_problem, synthetic_data
 from torchshm.predictive import exact_predictive, posterior_predictive
 import torchshm.predictive.predictive as pp
 from doubles_predictive import linear_setup

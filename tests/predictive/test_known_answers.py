@@ -1,6 +1,6 @@
 """Bayes factors and KL divergence of real VBMC runs against closed-form answers.
 
-Linear-Gaussian problems (tests/predictive/linear_gaussian.py): Matérn 3/2 and Matérn 5/2
+Linear-Gaussian problems (tests/predictive/predictive_linear_gaussian.py): Matérn 3/2 and Matérn 5/2
 discrepancies with fixed parameters, Normal priors; data drawn with a Matérn 3/2 discrepancy.
 """
 
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import torchshm
-from linear_gaussian import TwoShapeModel, analytic, make_problem, synthetic_data
+from predictive_linear_gaussian import TwoShapeModel, analytic, make_problem, synthetic_data
 from torchshm.predictive import bayes_factors, jeffreys_label, kl_divergence
 
 

@@ -67,7 +67,7 @@ class Bridge705Config:
     length: float = 102.0
     n_spans: int = 7
     deck: Rectangle = Rectangle(width=4.0, depth=0.6)
-    pier: Rectangle = Rectangle(width=1.0, depth=0.7)
+    pier: Rectangle = Rectangle(width=1.0, depth=0.6)
     pier_height: float = 4.0
     pier_elements: int = 4
     pitch: float = 0.1

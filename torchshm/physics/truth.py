@@ -89,21 +89,21 @@ class TruthConfig:
     fine_pitch: float = 0.025
     fine_start: float = 34.8
     fine_end: float = 70.2
-    haunch_depth: float = 0.08
+    haunch_depth: float = 0.04
     haunch_length: float = 2.0
-    pier_flare: float = 0.12
+    pier_flare: float = 0.06
     pier_flare_length: float = 1.5
     pier_elements: int = 8
     zones: tuple[Zone, ...] = (
         # pavement and tram-rail stretches: stiffer, neutral axis slightly lower
-        Zone(30.0, 38.6, 1.04, 1.02),
-        Zone(41.0, 46.4, 1.08, 1.03),
-        Zone(55.8, 61.0, 1.07, 1.02),
-        Zone(66.2, 75.0, 1.04, 1.01),
+        Zone(30.0, 38.6, 1.02, 1.01),
+        Zone(41.0, 46.4, 1.04, 1.015),
+        Zone(55.8, 61.0, 1.035, 1.01),
+        Zone(66.2, 75.0, 1.02, 1.005),
         # smeared cracking (lost tension stiffening) around the span centres, in sagging
-        Zone(34.0, 39.0, 0.90, 1.03),
-        Zone(48.5, 53.5, 0.90, 1.03),
-        Zone(63.0, 68.0, 0.90, 1.03),
+        Zone(34.0, 39.0, 0.95, 1.015),
+        Zone(48.5, 53.5, 0.95, 1.015),
+        Zone(63.0, 68.0, 0.95, 1.015),
     )
     cracks: tuple[Crack, ...] = (
         Crack(36.1, 0.3, 0.85, 1.10),
