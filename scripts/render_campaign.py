@@ -23,7 +23,9 @@ from torchshm.data.campaign import campaign_truth, discrepancy_summary, syntheti
 from torchshm.physics import Bridge705, bridge705  # noqa: E402
 
 
-def plot_load_cases(x: np.ndarray, loads: np.ndarray, measured: np.ndarray, model: np.ndarray, piers: np.ndarray, path: Path) -> None:
+def plot_load_cases(
+    x: np.ndarray, loads: np.ndarray, measured: np.ndarray, model: np.ndarray, piers: np.ndarray, path: Path
+) -> None:
     """All load cases, measured (`L x n`) against the model (`L x n`) [µε], to `path`."""
     fig, axes = plt.subplots(4, 3, figsize=(13, 11), sharex=True)
     for l, ax in enumerate(axes.flat):
@@ -38,7 +40,11 @@ def plot_load_cases(x: np.ndarray, loads: np.ndarray, measured: np.ndarray, mode
     for ax in axes[:, 0]:
         ax.set_ylabel("strain [µε]")
     axes[0, 0].legend(fontsize=8, loc="best")
-    fig.suptitle("Bridge 705, truck T1: bottom-fibre strain, synthetic campaign (seed 0) vs model (E_c = 35 GPa, log10 K_r = 11.5)", fontsize=10)
+    fig.suptitle(
+        "Bridge 705, truck T1: bottom-fibre strain, synthetic campaign vs model at the truth "
+        "(E_c = 35 GPa, log10 K_r = 11.5)",
+        fontsize=10,
+    )
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)

@@ -53,7 +53,8 @@ def test_public_attributes(model: Bridge705) -> None:
     np.testing.assert_array_equal(model.loads.numpy(), T1_POSITIONS)
     out = model(TRUTH)
     assert out.shape == (12, 351) and out.dtype == torch.float64
-    assert model(torch.rand(3, 4, 2) * torch.tensor([40.0, 12.0]) + torch.tensor([20.0, 0.0])).shape == (3, 4, 12, 351)
+    batch = torch.rand(3, 4, 2) * torch.tensor([40.0, 12.0]) + torch.tensor([20.0, 0.0])
+    assert model(batch).shape == (3, 4, 12, 351)
     assert model(np.array([35.0, 11.5])).shape == (12, 351)
 
 

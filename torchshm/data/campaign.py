@@ -63,7 +63,10 @@ def write_campaign(truth: CampaignTruth, path: str | Path) -> Path:
 
     dataset = xr.Dataset(
         {"strain_truth": (("load", "x"), np.asarray(truth.strain, dtype=np.float64))},
-        coords={"load": np.asarray(truth.loads, dtype=np.float64), "x": np.asarray(truth.x, dtype=np.float64)},
+        coords={
+            "load": np.asarray(truth.loads, dtype=np.float64),
+            "x": np.asarray(truth.x, dtype=np.float64),
+        },
         attrs=dict(truth.attrs),
     )
     dataset["strain_truth"].attrs["units"] = "microstrain"
@@ -123,7 +126,8 @@ def synthetic_campaign(seed: int = 0, path: str | Path | None = None) -> Measure
         "truth_log10_K_r": float(truth.attrs["truth_log10_K_r"]),
         "offset_sd": truth.offset_sd,
     }
-    return Measurements(truth.x, truth.strain + offsets + noise, truth.loads, sigma_e=truth.sigma_e, attrs=attrs)
+    y = truth.strain + offsets + noise
+    return Measurements(truth.x, y, truth.loads, sigma_e=truth.sigma_e, attrs=attrs)
 
 
 def discrepancy_summary(discrepancy: np.ndarray, pitch: float) -> tuple[float, float]:

@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from torchshm.inference.posterior import Posterior
+
+if TYPE_CHECKING:
+    from torchshm.likelihood import Problem
 
 METHODS = ("vbmc", "emcee")
 
 
 def identify(
-    problem: Any, method: str = "vbmc", seed: int = 0, *, log_dir: str | Path | None = None,
+    problem: Problem, method: str = "vbmc", seed: int = 0, *, log_dir: str | Path | None = None,
     **options: Any,
 ) -> Posterior:
     """Infer the posterior of ``problem``'s parameters.
@@ -23,9 +26,11 @@ def identify(
         seed: seed of every random draw of the run.
         log_dir: TensorBoard folder written during the run (per VBMC iteration, or every
             ``log_every`` emcee steps), or None.
-        **options: method options. VBMC: ``n_samples``, ``start``, ``reuse`` and any PyVBMC
-            option (``max_fun_evals``, ``display``, ...). emcee: ``n_walkers`` (40),
-            ``n_steps`` (2000), ``burn``, ``thin``, ``backend_path``, ``log_every``, ``window``.
+        **options: method options. VBMC: ``n_samples``, ``start``
+            (:class:`~torchshm.inference.start.StartSettings`), ``reuse`` and any PyVBMC option
+            (``max_fun_evals``, ``display``, ...). emcee: ``n_walkers`` (40), ``n_steps`` (2000),
+            ``burn``, ``thin``, ``backend_path``, ``log_every``, ``window``, ``moves``. See
+            ``docs/inference.md``.
 
     Returns:
         The :class:`Posterior`. A run that did not converge has ``converged = False`` and warns.

@@ -53,9 +53,12 @@ def _posterior_group(post: Posterior) -> xr.Dataset:
 
 
 def _sample_stats_group(post: Posterior) -> xr.Dataset:
-    data = {k: (("chain", "draw"), _chains(post, np.asarray(v))) for k, v in post.sample_stats.items()}
+    data = {
+        k: (("chain", "draw"), _chains(post, np.asarray(v))) for k, v in post.sample_stats.items()
+    }
     scalars = {k: v for k, v in post.diagnostics.items() if isinstance(v, (int, float, str))}
-    return xr.Dataset(data, attrs={k: (int(v) if isinstance(v, bool) else v) for k, v in scalars.items()})
+    attrs = {k: (int(v) if isinstance(v, bool) else v) for k, v in scalars.items()}
+    return xr.Dataset(data, attrs=attrs)
 
 
 def _observed_group(post: Posterior) -> xr.Dataset | None:
@@ -63,7 +66,10 @@ def _observed_group(post: Posterior) -> xr.Dataset | None:
     if meas is None:
         return None
     y = np.asarray(meas.y, dtype=np.float64)
-    coords = {"load": np.asarray(meas.loads, dtype=np.float64), "x": np.asarray(meas.x, dtype=np.float64)}
+    coords = {
+        "load": np.asarray(meas.loads, dtype=np.float64),
+        "x": np.asarray(meas.x, dtype=np.float64),
+    }
     attrs = {"units": "microstrain", "sigma_e": float(meas.sigma_e)}
     return xr.Dataset({"y": (("load", "x"), y)}, coords=coords, attrs=attrs)
 
@@ -103,7 +109,8 @@ def save_posterior(post: Posterior, path: str | Path) -> Path:
         ("sample_stats", _sample_stats_group(post)),
         ("observed_data", _observed_group(post)),
         ("history", _history_group(post)),
-        ("variational_posterior", None if post.variational is None else _variational_group(post.variational)),
+        ("variational_posterior",
+         None if post.variational is None else _variational_group(post.variational)),
     ]
     mode = "w"
     for name, ds in groups:
@@ -155,16 +162,20 @@ def load_posterior(path: str | Path) -> Posterior:
         str(k): hist["value"].values[:, i] for i, k in enumerate(hist["column"].values)
     }
     stats = groups.get("sample_stats")
-    sample_stats = {} if stats is None else {str(k): _flat(stats[k].values) for k in stats.data_vars}
+    sample_stats = {} if stats is None else {
+        str(k): _flat(stats[k].values) for k in stats.data_vars
+    }
     vp_ds = groups.get("variational_posterior")
     ev, ev_sd = float(ds.attrs["log_evidence"]), float(ds.attrs["log_evidence_sd"])
     return Posterior(
         names=names, method=str(ds.attrs["method"]), samples=_flat(samples),
-        log_evidence=None if np.isnan(ev) else ev, log_evidence_sd=None if np.isnan(ev_sd) else ev_sd,
+        log_evidence=None if np.isnan(ev) else ev,
+        log_evidence_sd=None if np.isnan(ev_sd) else ev_sd,
         n_model_evaluations=int(ds.attrs["n_model_evaluations"]),
         converged=bool(int(ds.attrs["converged"])), diagnostics=json.loads(ds.attrs["diagnostics"]),
         priors=priors_from_json(json.loads(ds.attrs["priors"])), history=history,
-        sample_stats=sample_stats, variational=None if vp_ds is None else _rebuild_variational(vp_ds),
+        sample_stats=sample_stats,
+        variational=None if vp_ds is None else _rebuild_variational(vp_ds),
         n_chains=n_chain, problem=None,
     )
 

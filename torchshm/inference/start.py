@@ -74,7 +74,9 @@ class StartSettings:
             probes = dim * (PROBE_TRIES + 1) if probe else 0
             n_local = min(n_local, max(0, budget // 2 - n_design - probes))
         threshold = self.keep_threshold if self.keep_threshold is not None else 100.0 * (dim + 2)
-        return replace(self, n_design=n_design, n_local=n_local, probe=probe, keep_threshold=threshold)
+        return replace(
+            self, n_design=n_design, n_local=n_local, probe=probe, keep_threshold=threshold
+        )
 
 
 def latin_design(plausible: np.ndarray, n: int, seed: int) -> np.ndarray:

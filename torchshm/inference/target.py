@@ -75,7 +75,7 @@ class PointLog:
                 fh.flush()
 
     def read(self) -> np.ndarray:
-        """Distinct recorded points of problems with the same names, in first-seen order (`M x D`)."""
+        """Distinct recorded points of problems with the same names, first seen first (`M x D`)."""
         rows: list[tuple[float, ...]] = []
         seen: set[tuple[float, ...]] = set()
         text = self.path.read_text(encoding="utf-8") if self.path.exists() else ""

@@ -21,7 +21,7 @@ from torchshm.inference.posterior import SUMMARY_QUANTILES
 
 
 def marginal_scalars(names: list[str], samples: np.ndarray) -> dict[str, float]:
-    """``<name>/mean``, ``<name>/q2.5`` and ``<name>/q97.5`` of each column of ``samples`` (`S x D`)."""
+    """``<name>/mean``, ``<name>/q2.5``, ``<name>/q97.5`` of the columns of ``samples`` (`S x D`)."""
     mean = samples.mean(axis=0)
     lo, hi = np.quantile(samples, SUMMARY_QUANTILES, axis=0)
     out: dict[str, float] = {}
@@ -66,7 +66,9 @@ class RunTrace:
         keys: list[str] = []
         for row in self.rows:
             keys += [k for k in row if k not in keys]
-        return {k: np.array([row.get(k, np.nan) for row in self.rows], dtype=np.float64) for k in keys}
+        return {
+            k: np.array([row.get(k, np.nan) for row in self.rows], dtype=np.float64) for k in keys
+        }
 
     def close(self) -> None:
         """Flush and close the TensorBoard writer (the in-memory rows stay)."""

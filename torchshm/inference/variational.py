@@ -63,7 +63,9 @@ def _iteration_row(vbmc: VBMC, names: list[str], n_precomputed: int, seed: int) 
     return row
 
 
-def _pyvbmc_options(options: dict[str, Any], x0_rows: int, n_initial: int, dim: int) -> dict[str, Any]:
+def _pyvbmc_options(
+    options: dict[str, Any], x0_rows: int, n_initial: int, dim: int
+) -> dict[str, Any]:
     """PyVBMC options: the user's, with an initial design made of ``x0`` when it is short.
 
     With at least ``D + 1`` starting points (the best point and its probing star) the initial

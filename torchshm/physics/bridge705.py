@@ -37,7 +37,9 @@ FORMULATION = "frame-woodbury-v1"
 _MAX_LOG_INV_KAPPA = 600.0
 
 
-def bridge_mesh(config: Bridge705Config, E: float = 1.0, pier_base: PierBase = "hinged", K_r: float = 0.0) -> BridgeMesh:
+def bridge_mesh(
+    config: Bridge705Config, E: float = 1.0, pier_base: PierBase = "hinged", K_r: float = 0.0
+) -> BridgeMesh:
     """The frame of the model for a modulus `E` [N/mm²] and a pier-base condition."""
     deck, pier = config.deck, config.pier
     return build_mesh(
@@ -107,7 +109,10 @@ class Bridge705:
         """Strains [µε] `... x L x n` for `theta_p` `... x 2` = (E_c [GPa], log10 K_r)."""
         theta = as_tensor(theta_p)
         if theta.shape[-1] != 2:
-            raise ValueError(f"bridge705: theta_p must end in 2 parameters (E_c, log10_K_r), got shape {tuple(theta.shape)}")
+            raise ValueError(
+                "bridge705: theta_p must end in 2 parameters (E_c, log10_K_r), "
+                f"got shape {tuple(theta.shape)}"
+            )
         E = 1000.0 * theta[..., 0]
         log_inv_kappa = torch.log(E) - math.log(10.0) * theta[..., 1]
         inv_kappa = torch.exp(torch.clamp(log_inv_kappa, max=_MAX_LOG_INV_KAPPA))

@@ -89,7 +89,9 @@ class Bridge705Config:
         n = int(round((self.sensor_end - self.sensor_start) / self.sensor_pitch)) + 1
         return np.round(self.sensor_start + self.sensor_pitch * np.arange(n), 9)
 
-    def deck_x(self, pitch: float | None = None, fine: tuple[float, float, float] | None = None) -> np.ndarray:
+    def deck_x(
+        self, pitch: float | None = None, fine: tuple[float, float, float] | None = None
+    ) -> np.ndarray:
         """Deck node positions [m]: a regular grid, the pier positions and the abutments.
 
         Args:

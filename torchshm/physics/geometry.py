@@ -44,7 +44,8 @@ class BridgeMesh:
         """Indices of the deck nodes at positions `x` [m]; ValueError if one is not a node."""
         x = np.atleast_1d(np.asarray(x, dtype=np.float64))
         index = np.clip(np.searchsorted(self.deck_x, x), 1, self.deck_x.size - 1)
-        index = np.where(np.abs(self.deck_x[index - 1] - x) < np.abs(self.deck_x[index] - x), index - 1, index)
+        closer_left = np.abs(self.deck_x[index - 1] - x) < np.abs(self.deck_x[index] - x)
+        index = np.where(closer_left, index - 1, index)
         off = np.abs(self.deck_x[index] - x) > NODE_TOL
         if np.any(off):
             raise ValueError(f"position x = {x[off][0]:g} m is not a deck node")
@@ -128,8 +129,10 @@ def build_mesh(
         elements.append(np.column_stack([chain[:-1], chain[1:]]))
         bases.append(first + pier_elements - 1)
     n_piers = len(pier_x)
-    EA = np.concatenate([np.broadcast_to(deck_EA, (n_el,)), np.tile(np.broadcast_to(pier_EA, (pier_elements,)), n_piers)])
-    EI = np.concatenate([np.broadcast_to(deck_EI, (n_el,)), np.tile(np.broadcast_to(pier_EI, (pier_elements,)), n_piers)])
+    pier_EA = np.tile(np.broadcast_to(pier_EA, (pier_elements,)), n_piers)
+    pier_EI = np.tile(np.broadcast_to(pier_EI, (pier_elements,)), n_piers)
+    EA = np.concatenate([np.broadcast_to(deck_EA, (n_el,)), pier_EA])
+    EI = np.concatenate([np.broadcast_to(deck_EI, (n_el,)), pier_EI])
     base = torch.as_tensor(bases, dtype=torch.int64)
     fixed = [dof(0, 0), dof(0, 1), dof(n_deck - 1, 1)]
     fixed_t = torch.cat([torch.tensor(fixed), dof(base, 0), dof(base, 1)])
