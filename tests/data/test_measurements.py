@@ -130,3 +130,16 @@ def test_bad_files(tmp_path: Path) -> None:
         load_measurements(nc)
     with pytest.raises(ValueError, match="unknown measurement file type"):
         load_measurements(bad.rename(tmp_path / "bad.txt"))
+
+
+def test_edge_inputs_give_named_errors(tmp_path: Path) -> None:
+    m = make()
+    for bad in (float("nan"), float("inf"), -0.1, 0.0):
+        with pytest.raises(ValueError, match="not a whole multiple of the pitch"):
+            m.downsample(bad)
+    np.testing.assert_array_equal(m.select(np.array(39.8)).loads, [39.8])
+    with pytest.raises(ValueError, match="load cases must be numbers"):
+        m.select(["abc"])
+    numpy_attrs = Measurements(m.x, m.y, m.loads, attrs={"n": np.int64(3), "e": np.float64(35.0)})
+    back = load_measurements(numpy_attrs.save(tmp_path / "a.csv"))
+    assert back.attrs == {"n": 3, "e": 35.0}

@@ -168,6 +168,13 @@ def test_singular_covariance_gives_finite_value_and_zero_covariance_gives_minus_
     assert float(zero) == -np.inf
 
 
+def test_negative_scale_or_length_gives_nan() -> None:
+    y, eta, x = np.ones((2, 5)), np.zeros((2, 5)), np.arange(5.0)
+    assert torch.isnan(log_likelihood(y, eta, x, "matern32", -1.0, 1.0))
+    assert torch.isnan(log_likelihood(y, eta, x, "matern32", 1.0, -1.0))
+    assert torch.isfinite(log_likelihood(y, eta, x, "independent", 1.0))
+
+
 def test_nan_prediction_gives_nan() -> None:
     eta = np.ones((3, 2, 5))
     eta[1, 0, 2] = np.nan
@@ -185,6 +192,10 @@ def test_nan_prediction_gives_nan() -> None:
         ({"eta": np.zeros((2, 3, 4))}, "eta must have shape"),
         ({"x": np.arange(4.0)}, "x must have shape"),
         ({"y": np.zeros(5)}, "y must have shape"),
+        ({"y": np.zeros((2, 0)), "eta": np.zeros((2, 0)), "x": np.zeros(0)}, "y must have shape"),
+        ({"length": None}, "kernel 'matern32' needs a length"),
+        ({"sigma_e": None}, "sigma_e must be a number"),
+        ({"eta": np.zeros((4, 2, 5)), "sigma_a": np.ones(3)}, "do not broadcast"),
     ],
 )
 def test_bad_input_is_named(kwargs: dict[str, object], message: str) -> None:

@@ -61,3 +61,12 @@ def test_tables_and_errors() -> None:
         bayes_factors({"a": Emcee(), "b": -1.0})
     with pytest.raises(ValueError, match="at least two"):
         bayes_factors({"a": -1.0})
+
+
+def test_nan_evidence_is_undefined_not_decisive() -> None:
+    from torchshm.predictive import bayes_factors
+
+    bf = bayes_factors({"a": float("nan"), "b": np.float32(-3.0)})
+    assert bf.labels[0][1] == "undefined" and bf.labels[1][0] == "undefined"
+    with pytest.raises(ValueError, match="has no log evidence"):
+        bayes_factors({"a": (None, None), "b": -1.0})

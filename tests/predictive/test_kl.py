@@ -44,3 +44,11 @@ def test_prior_without_log_prob() -> None:
     post = GaussianPosterior(["a"], np.array([1.0]), np.array([[4.0]]), priors={"a": 1.0})
     with pytest.raises(ValueError, match="no log_prob"):
         kl_divergence(post, n=10)
+
+
+def test_estimate_is_a_number_with_its_error() -> None:
+    from torchshm.predictive.kl import KLEstimate
+
+    kl = KLEstimate(1.25, 0.01, 100)
+    assert kl == 1.25 and kl > 1 and f"{kl:.1f}" == "1.2" and kl + 1 == 2.25
+    assert (kl.value, kl.se, kl.n) == (1.25, 0.01, 100)

@@ -74,6 +74,7 @@ def write_campaign(truth: CampaignTruth, path: str | Path) -> Path:
     dataset["load"].attrs["units"] = "m"
     path = Path(path)
     dataset.to_netcdf(path, engine="h5netcdf")
+    _read.cache_clear()  # a rewritten file must not be served from the cache
     return path
 
 

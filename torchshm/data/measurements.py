@@ -70,7 +70,9 @@ class Measurements:
         if not np.isfinite(sigma_e) or sigma_e < 0:
             raise ValueError(f"measurements: sigma_e must be finite and >= 0, got {sigma_e}")
         self.sigma_e = sigma_e
-        self.attrs: dict[str, AttrValue] = dict(attrs or {})
+        self.attrs: dict[str, AttrValue] = {
+            str(k): v.item() if isinstance(v, np.generic) else v for k, v in (attrs or {}).items()
+        }
 
     # ------------------------------------------------------------------ views
     @property
@@ -90,7 +92,10 @@ class Measurements:
 
     def load_index(self, loads: Iterable[float]) -> np.ndarray:
         """Indices of `loads` in :attr:`loads` (within 1e-6 m); ValueError naming an unknown one."""
-        wanted = np.atleast_1d(np.asarray(list(loads) if not np.isscalar(loads) else [loads], dtype=np.float64))
+        try:
+            wanted = np.atleast_1d(np.asarray(loads, dtype=np.float64)).reshape(-1)
+        except (TypeError, ValueError):
+            raise ValueError(f"load cases must be numbers, got {loads!r}") from None
         index = []
         for load in wanted:
             hits = np.flatnonzero(np.abs(self.loads - load) <= POSITION_TOL)
@@ -116,8 +121,8 @@ class Measurements:
         if pitch is None:
             raise ValueError("measurements: cannot downsample, positions x are not equally spaced")
         ratio = resolution / pitch
-        k = int(round(ratio))
-        if not np.isfinite(ratio) or k < 1 or abs(ratio - k) > 1e-6:
+        k = int(round(ratio)) if np.isfinite(ratio) else 0
+        if k < 1 or abs(ratio - k) > 1e-6:
             raise ValueError(
                 f"resolution {resolution:g} m is not a whole multiple of the pitch {pitch:g} m"
             )

@@ -60,7 +60,7 @@ def log_likelihood(
     Returns:
         `...` log-likelihoods (float64 tensor; the batch shape is the broadcast of `eta`'s,
         `sigma_a`'s and `length`'s). -inf where a covariance cannot be factorised even with the
-        largest jitter; NaN where an input is NaN.
+        largest jitter; NaN where an input is not finite or sigma_a or length is negative.
 
     Raises:
         ValueError: for an unknown kernel, mismatched shapes, or a negative or non-finite
@@ -72,9 +72,17 @@ def log_likelihood(
     x = as_float64(x).to(eta.device)
     _check_shapes(y, eta, x)
     sigma_m, sigma_e = _check_scale("sigma_m", sigma_m), _check_scale("sigma_e", sigma_e)
+    if kern.has_length and length is None:
+        raise ValueError(f"log_likelihood: kernel {kern.name!r} needs a length")
     sa = as_float64(sigma_a).to(eta.device)
-    ell = as_float64(0.0 if length is None or not kern.has_length else length).to(eta.device)
-    batch = torch.broadcast_shapes(eta.shape[:-2], sa.shape, ell.shape)
+    ell = as_float64(0.0 if not kern.has_length else length).to(eta.device)
+    try:
+        batch = torch.broadcast_shapes(eta.shape[:-2], sa.shape, ell.shape)
+    except RuntimeError:
+        raise ValueError(
+            f"log_likelihood: shapes of sigma_a {tuple(sa.shape)} and length {tuple(ell.shape)} "
+            f"do not broadcast with eta's batch {tuple(eta.shape[:-2])}"
+        ) from None
     n_batch = math.prod(batch)
     eta_f = eta.expand(*batch, *y.shape).reshape(n_batch, *y.shape)
     sa_f, ell_f = sa.expand(batch).reshape(n_batch), ell.expand(batch).reshape(n_batch)
@@ -85,7 +93,8 @@ def log_likelihood(
         c = slice(i, i + step)
         parts.append(_block_log_density(y, eta_f[c], x, kern, sa_f[c], ell_f[c], sigma_m, sigma_e))
     out = parts[0] if len(parts) == 1 else torch.cat(parts) if parts else eta_f.new_zeros(0)
-    bad = ~(torch.isfinite(eta_f).all(-1).all(-1) & torch.isfinite(sa_f) & torch.isfinite(ell_f))
+    finite = torch.isfinite(eta_f).all(-1).all(-1) & torch.isfinite(sa_f) & torch.isfinite(ell_f)
+    bad = ~finite | (sa_f < 0) | (ell_f < 0)
     return torch.where(bad, torch.nan, out).reshape(batch)
 
 
@@ -124,8 +133,8 @@ def _block_log_density(
 
 def _check_shapes(y: Tensor, eta: Tensor, x: Tensor) -> None:
     """Raise ``ValueError`` unless ``y`` is `L x n`, ``eta`` `... x L x n` and ``x`` `n`."""
-    if y.ndim != 2:
-        raise ValueError(f"log_likelihood: y must have shape (L, n), got {tuple(y.shape)}")
+    if y.ndim != 2 or 0 in y.shape:
+        raise ValueError(f"log_likelihood: y must have shape (L, n), L, n >= 1, got {tuple(y.shape)}")
     if eta.ndim < 2 or eta.shape[-2:] != y.shape:
         raise ValueError(
             f"log_likelihood: eta must have shape (..., {y.shape[0]}, {y.shape[1]}) like y, "
@@ -137,7 +146,10 @@ def _check_shapes(y: Tensor, eta: Tensor, x: Tensor) -> None:
 
 def _check_scale(name: str, value: float) -> float:
     """``value`` as a float; ``ValueError`` naming ``name`` when negative or not finite."""
-    value = float(value)
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"log_likelihood: {name} must be a number, got {value!r}") from None
     if not math.isfinite(value) or value < 0:
         raise ValueError(f"log_likelihood: {name} must be finite and >= 0, got {value}")
     return value

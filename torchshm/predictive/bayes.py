@@ -13,6 +13,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import numbers
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
@@ -31,7 +32,9 @@ JEFFREYS: tuple[tuple[float, str], ...] = (
 
 
 def jeffreys_label(log10_b: float) -> str:
-    """Strength of evidence of Table 1 for a Bayes factor ``10**log10_b``."""
+    """Strength of evidence of Table 1 for a Bayes factor ``10**log10_b`` ("undefined" for NaN)."""
+    if math.isnan(log10_b):
+        return "undefined"
     for upper, label in JEFFREYS:
         if log10_b < upper:
             return label
@@ -95,10 +98,12 @@ class BayesFactors:
 
 def _evidence(name: str, item: Any) -> tuple[float, float]:
     """``(elbo, sd)`` of a posterior, an ``(elbo, sd)`` pair or a bare number."""
-    if isinstance(item, (int, float)):
+    if isinstance(item, numbers.Real):
         return float(item), math.nan
     if isinstance(item, (tuple, list)):
         elbo, sd = item
+        if elbo is None:
+            raise ValueError(f"bayes_factors: model {name!r} has no log evidence (an emcee posterior?)")
         return float(elbo), math.nan if sd is None else float(sd)
     elbo = getattr(item, "log_evidence", None)
     if elbo is None:

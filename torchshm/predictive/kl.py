@@ -7,32 +7,39 @@ parameters, estimated as the mean over ``n`` draws of ``q``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import torch
 
 
-@dataclass(frozen=True)
-class KLEstimate:
-    """A Monte Carlo estimate of the KL divergence.
+class KLEstimate(float):
+    """A Monte Carlo estimate of the KL divergence: a float [nats] that also carries its error.
 
     Attributes:
-        value: the estimate [nats].
+        value: the estimate [nats] (the float itself).
         se: its Monte Carlo standard error [nats].
         n: number of draws.
     """
 
-    value: float
     se: float
     n: int
 
-    def __float__(self) -> float:
-        return self.value
+    def __new__(cls, value: float, se: float, n: int) -> KLEstimate:
+        obj = super().__new__(cls, value)
+        obj.se, obj.n = float(se), int(n)
+        return obj
+
+    @property
+    def value(self) -> float:
+        """The estimate [nats]."""
+        return float(self)
 
     def __str__(self) -> str:
         return f"{self.value:.3f} ± {self.se:.3f} nats (n = {self.n})"
+
+    def __repr__(self) -> str:
+        return f"KLEstimate(value={self.value!r}, se={self.se!r}, n={self.n})"
 
 
 def log_prior(priors: Any, names: list[str], theta: np.ndarray) -> np.ndarray:
