@@ -95,3 +95,15 @@ def test_full_error_shows_the_traceback(cli) -> None:
 def test_no_run_folder_for_a_config_error(cli, tmp_path: Path) -> None:
     cli("kernel=foo")
     assert not (tmp_path / "runs").exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "fragments"),
+    [
+        (["predict.n=0"], ["predict.n must be >= 1"]),
+        (["method=emcee", "method.thin=0"], ["method.thin must be >= 1"]),
+        (["method=emcee", "method.n_walkers=3"], ["method.n_walkers must be at least twice"]),
+    ],
+)
+def test_method_and_predict_options_checked_before_inference(cli, args: list[str], fragments: list[str]) -> None:
+    assert_one_line_error(cli(*args), *fragments)

@@ -101,3 +101,19 @@ def test_emcee_backend_of_another_shape_is_refused(tmp_path: Path) -> None:
         identify(linear_gaussian_problem(), "emcee", n_walkers=8, n_steps=5, burn=0, backend_path=path)
         with pytest.raises(ValueError, match="shape of the backend"):
             identify(linear_gaussian_problem(), "emcee", n_walkers=10, n_steps=5, burn=0, backend_path=path)
+
+
+def test_emcee_backend_of_another_problem_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "chain.h5"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        identify(linear_gaussian_problem(seed=3), "emcee", n_walkers=8, n_steps=5, burn=0, backend_path=path)
+        with pytest.raises(ValueError, match="started for another problem"):
+            identify(linear_gaussian_problem(seed=4), "emcee", n_walkers=8, n_steps=10, burn=0, backend_path=path)
+
+
+def test_emcee_settings_are_checked_before_sampling() -> None:
+    with pytest.raises(ValueError, match="thin must be >= 1"):
+        identify(linear_gaussian_problem(), "emcee", n_walkers=8, n_steps=5, burn=0, thin=0)
+    with pytest.raises(ValueError, match="n_walkers must be at least twice"):
+        identify(linear_gaussian_problem(), "emcee", n_walkers=3, n_steps=5, burn=0)

@@ -90,3 +90,15 @@ def test_a_dying_job_is_recorded_as_failed(tmp_path: Path) -> None:
     assert store.failures(GridModel())[1] == [result.errors[1]]
     retried = evaluate(GridModel(), theta, store=store, retry_failed=True)
     assert retried.ok.all() and retried.n_new == 1
+
+
+def test_a_worker_that_dies_is_a_failed_evaluation_not_a_crash(tmp_path: Path) -> None:
+    theta = grid(3, 2)
+    crash = (round(float(theta[2, 0]), 9), round(float(theta[2, 1]), 9))
+    store = EvaluationStore(tmp_path / "s.sqlite")
+    res = evaluate(GridModel(fail={crash: "exit"}), theta, store=store, n_jobs=2)
+    assert res.ok.sum() == len(theta) - 1 and not res.ok[2]
+    assert "worker process died" in res.errors[2]
+    assert store.count(GridModel()) == len(theta)  # the failure is recorded too
+    again = evaluate(GridModel(), theta, store=store, n_jobs=2)
+    assert again.n_new == 0  # not retried unless asked

@@ -39,13 +39,14 @@ def _app(cfg: DictConfig) -> float | None:
     Returns:
         The log evidence (ELBO) of the run, or None (emcee), for Hydra's sweepers.
     """
-    from torchshm.cli.job import run_job
+    from torchshm.cli.job import prepare_job, run_job
 
     logging.captureWarnings(True)  # warnings go to the run's log, not to stderr
-    with bad_input_in_job():
+    with bad_input_in_job():  # only the inputs: a failure later is a failed run, not bad input
         settings = to_settings(cfg)
-        out_dir = Path(HydraConfig.get().runtime.output_dir)
-        result = run_job(settings, out_dir, base=Path(hydra.utils.get_original_cwd()))
+        job = prepare_job(settings, base=Path(hydra.utils.get_original_cwd()))
+    out_dir = Path(HydraConfig.get().runtime.output_dir)
+    result = run_job(job, out_dir)
     post = result.posterior
     log.info("%d model evaluations in %.1f s; outputs in %s",
              post.n_model_evaluations, result.wall_time_s, out_dir)

@@ -100,46 +100,83 @@ def build_problem(settings: Config, model: Any, measurements: Any, base: Path,
     )
 
 
-def run_job(settings: Config, out_dir: Path, base: Path) -> JobResult:
-    """Identify, predict and write every output of one run into ``out_dir``.
+@dataclass
+class PreparedJob:
+    """A run whose inputs have all been read and checked; nothing has been evaluated yet."""
+
+    settings: Config
+    problem: Any
+    measurements: Any
+    held_out: Any
+    t0: float
+
+
+def prepare_job(settings: Config, base: Path) -> PreparedJob:
+    """Read and check every input of a run (priors, data, load cases, model, options).
 
     Args:
         settings: the run's typed configuration.
-        out_dir: the run folder (created if missing).
         base: directory that relative ``data.path`` and ``store`` are resolved against.
 
-    Returns:
-        The :class:`JobResult`.
-
     Raises:
-        ValueError, OSError: for bad input (missing or malformed file, unknown load case,
-            bad priors), before any inference starts.
+        ValueError, OSError: for bad input (missing or malformed file, unknown load case, bad
+            priors or method options), before any model is evaluated.
     """
-    import torchshm
-
     t0 = time.perf_counter()
-    out_dir.mkdir(parents=True, exist_ok=True)
+    if settings.predict.n < 1:
+        raise ValueError(f"predict.n must be >= 1, got {settings.predict.n}")
     priors = build_priors(settings.priors)  # cheap checks first
     measurements = load_data(settings.data, base)
     held_out = measurements.select(settings.predict.loads) if settings.predict.loads else None
     model = build_model(settings.model.name)
     problem = build_problem(settings, model, measurements, base, priors)
+    _check_method_options(settings, len(problem.names))
+    return PreparedJob(settings, problem, measurements, held_out, t0)
+
+
+def run_job(job: PreparedJob, out_dir: Path) -> JobResult:
+    """Identify, predict and write every output of one prepared run into ``out_dir``.
+
+    Errors raised here are failures of the run, not bad input: in a sweep, Hydra records the
+    failed job and goes on with the others.
+    """
+    import torchshm
+
+    settings, problem = job.settings, job.problem
+    out_dir.mkdir(parents=True, exist_ok=True)
     log.info("identifying %s with %s (%s kernel, %d load case(s), %d positions)",
              problem.names, settings.method.name.value, settings.kernel.name.value,
-             len(settings.data.loads), measurements.n)
+             len(settings.data.loads), job.measurements.n)
     post = torchshm.identify(
         problem, method=settings.method.name.value, seed=settings.seed,
         log_dir=out_dir / "tb", **method_options(settings.method),
     )
     result = JobResult(post, out_dir, 0.0)
-    result.files.update(outputs.write_posterior(post, out_dir, measurements.attrs))
-    if held_out is not None:
-        result.predictive, files = outputs.write_predictive(post, held_out, settings.predict.n,
+    result.files.update(outputs.write_posterior(post, out_dir, job.measurements.attrs))
+    if job.held_out is not None:
+        result.predictive, files = outputs.write_predictive(post, job.held_out, settings.predict.n,
                                                             settings.seed, out_dir)
         result.files.update(files)
-    result.wall_time_s = time.perf_counter() - t0
+    result.wall_time_s = time.perf_counter() - job.t0
     result.files["run"] = outputs.write_run_record(result, settings)
     return result
 
 
-__all__ = ["JobResult", "build_model", "build_problem", "load_data", "resolve_path", "run_job"]
+def _check_method_options(settings: Config, n_params: int) -> None:
+    """Refuse emcee options that would fail only after sampling (``ValueError`` naming the key)."""
+    options = method_options(settings.method)
+    if settings.method.name.value != "emcee":
+        return
+    if int(options.get("thin", 1)) < 1:
+        raise ValueError(f"method.thin must be >= 1, got {options['thin']}")
+    if int(options.get("n_walkers", 2 * n_params)) < 2 * n_params:
+        raise ValueError(
+            f"method.n_walkers must be at least twice the number of parameters "
+            f"({2 * n_params}), got {options['n_walkers']}"
+        )
+
+
+__all__ = [
+    "JobResult", "PreparedJob", "build_model", "build_problem", "load_data", "prepare_job",
+    "resolve_path", "run_job",
+]

@@ -8,6 +8,8 @@ a run on an existing file continues from its last step for the steps that remain
 
 from __future__ import annotations
 
+import hashlib
+import json
 import time
 import warnings
 from pathlib import Path
@@ -16,9 +18,35 @@ from typing import Any
 import emcee
 import numpy as np
 
+from torchshm.forward.protocol import model_identity
 from torchshm.inference.posterior import Posterior
 from torchshm.inference.target import LogJointTarget
 from torchshm.inference.tensorboard import RunTrace, marginal_scalars
+
+
+def _problem_signature(problem: Any) -> str:
+    """What a resumed chain must share with the run that started it (JSON text)."""
+    m = problem.measurements
+    digest = hashlib.sha256()
+    for values in (m.x, m.y, m.loads):
+        digest.update(np.ascontiguousarray(values, dtype=np.float64).tobytes())
+    return json.dumps({
+        "names": list(problem.names),
+        "kernel": getattr(problem.kernel, "name", str(problem.kernel)),
+        "model": model_identity(problem.model), "measurements": digest.hexdigest()[:16],
+    }, sort_keys=True)
+
+
+def _check_resume(path: str | Path, signature: str, resuming: bool) -> None:
+    """Refuse to continue a chain file written for another problem; record a new one's."""
+    sidecar = Path(f"{path}.problem.json")
+    if resuming and sidecar.is_file() and sidecar.read_text() != signature:
+        raise ValueError(
+            f"emcee: the chain in {path} was started for another problem "
+            f"({sidecar.read_text()}); use another backend_path or delete it"
+        )
+    if not resuming:
+        sidecar.write_text(signature)
 
 
 def _backend(path: str | Path | None) -> emcee.backends.Backend:
@@ -98,6 +126,13 @@ def run_emcee(
     burn = n_steps // 2 if burn is None else int(burn)
     if not 0 <= burn < n_steps:
         raise ValueError(f"emcee: burn must be in [0, n_steps), got burn={burn}, n_steps={n_steps}")
+    if int(thin) < 1:
+        raise ValueError(f"emcee: thin must be >= 1, got {thin}")
+    if int(n_walkers) < 2 * len(problem.names):
+        raise ValueError(
+            f"emcee: n_walkers must be at least twice the number of parameters "
+            f"({2 * len(problem.names)}), got {n_walkers}"
+        )
     calls_before = int(problem.n_model_evaluations)
     target = LogJointTarget(problem, None, impute_failures=False, hard_bounds=hard)
     backend = _backend(backend_path)
@@ -105,6 +140,8 @@ def run_emcee(
         n_walkers, len(names), target.evaluate, backend=backend, vectorize=True, moves=moves
     )
     done = int(backend.iteration) if backend_path is not None and backend.initialized else 0
+    if backend_path is not None:
+        _check_resume(backend_path, _problem_signature(problem), done > 0)
     if done > 0:
         state = backend.get_last_sample()
     else:

@@ -21,6 +21,7 @@ from typing import Any
 
 import joblib
 import submitit
+from joblib.externals.loky.process_executor import TerminatedWorkerError
 
 from torchshm.storage.keys import key_theta
 from torchshm.storage.record import Record, now_utc, run_model
@@ -64,10 +65,42 @@ def run_joblib(task: Task, keys: Sequence[str], n_jobs: int) -> Outcome:
     Each worker commits its result to the store itself, so a result is durable even if this
     process dies before collecting it.
     """
-    results = joblib.Parallel(n_jobs=n_jobs, batch_size=1)(
-        joblib.delayed(_run_and_save)(task, key) for key in keys
-    )
+    try:
+        results = joblib.Parallel(n_jobs=n_jobs, batch_size=1)(
+            joblib.delayed(_run_and_save)(task, key) for key in keys
+        )
+    except TerminatedWorkerError as exc:  # a model run killed its process (segfault, OOM)
+        logger.warning("a worker process died (%s); running the rest one worker at a time", exc)
+        return _run_isolated(task, keys)
     return {record.key: record for record, _ in results}, sum(ran for _, ran in results)
+
+
+def _run_isolated(task: Task, keys: Sequence[str]) -> Outcome:
+    """Each key in a worker process of its own; a key whose worker dies is a failed evaluation.
+
+    Results the crashed batch already committed are found in the store and not run again.
+    """
+    records: dict[str, Record] = {}
+    calls = 0
+    for key in keys:
+        try:
+            [(record, ran)] = joblib.Parallel(n_jobs=2, batch_size=1)([joblib.delayed(_run_and_save)(task, key)])
+        except TerminatedWorkerError as exc:
+            record, ran = _failed(task, key, f"worker process died: {exc}", repr(exc)), 1
+            if task.store is not None:
+                task.store.save(record)
+        records[key] = record
+        calls += ran
+    return records, calls
+
+
+def _failed(task: Task, key: str, error: str, traceback: str) -> Record:
+    """A failed evaluation of ``key`` whose model call ended without a result."""
+    return Record(
+        model=task.identity, key=key, status="failed", outputs=None, error=error,
+        wall_time=float("nan"), finished_at=now_utc(), host=socket.gethostname(), pid=os.getpid(),
+        traceback=traceback,
+    )
 
 
 def run_submitit(task: Task, keys: Sequence[str], executor: Any) -> Outcome:
@@ -85,12 +118,7 @@ def run_submitit(task: Task, keys: Sequence[str], executor: Any) -> Outcome:
         try:
             record = job.result()
         except Exception as exc:  # the job itself failed; the model call may never have run
-            record = Record(
-                model=task.identity, key=key, status="failed", outputs=None,
-                error=f"job {job.job_id} failed: {_job_error(exc)}", wall_time=float("nan"),
-                finished_at=now_utc(), host=socket.gethostname(), pid=os.getpid(),
-                traceback=str(exc),
-            )
+            record = _failed(task, key, f"job {job.job_id} failed: {_job_error(exc)}", str(exc))
         if task.store is not None:
             task.store.ingest()
             task.store.save(record)
