@@ -59,3 +59,12 @@ def test_known_points_are_distinct_finite_and_best_first(tmp_path) -> None:
     assert np.array_equal(X, [[0.0, 0.5], [1.0, 1.0]])
     assert np.array_equal(y, [-0.25, -2.0])
     assert log.read().shape == (3, 2)  # every evaluated point is logged, failed ones too
+
+
+def test_points_of_another_model_are_not_reused(tmp_path: Path) -> None:
+    """Reusing another model's points would cost new runs of this model."""
+    path = tmp_path / "s.points.jsonl"
+    PointLog(path, ["a", "b"], model="surrogate-1").append(np.array([[1.0, 2.0], [3.0, 4.0]]))
+    PointLog(path, ["a", "b"], model="fe-1").append(np.array([[5.0, 6.0]]))
+    assert np.array_equal(PointLog(path, ["a", "b"], model="fe-1").read(), [[5.0, 6.0]])
+    assert np.array_equal(PointLog(path, ["a", "b"], model="surrogate-1").read(), [[1.0, 2.0], [3.0, 4.0]])

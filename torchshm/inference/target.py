@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from torchshm.forward.protocol import model_identity
+
 
 def store_path(problem: Any) -> Path | None:
     """Path of the problem's evaluation store, or None when it has none."""
@@ -38,7 +40,8 @@ def store_path(problem: Any) -> Path | None:
 class PointLog:
     """Append-only record of the parameter vectors evaluated on one store.
 
-    One JSON line per point, ``{"names": [...], "theta": [...]}``, written and flushed *before*
+    One JSON line per point, ``{"names": [...], "model": ..., "theta": [...]}``, written and
+    flushed *before*
     the point is evaluated: a run killed at any moment leaves every point it asked for in the
     file (a torn last line is skipped on reading). Rerun through the store, a finished point
     costs no model call, and a point killed in flight is evaluated then. A point already in the
@@ -47,11 +50,14 @@ class PointLog:
     Args:
         path: the file, conventionally ``<store>.points.jsonl`` (see :func:`point_log_for`).
         names: the parameter names of the problem, which select the lines it can reuse.
+        model: identity of the problem's forward model; only points of the same model are
+            reused, since rerunning another model's points would cost new model runs.
     """
 
-    def __init__(self, path: str | Path, names: list[str]) -> None:
+    def __init__(self, path: str | Path, names: list[str], model: str | None = None) -> None:
         self.path = Path(path)
         self.names = list(names)
+        self.model = model
         self._seen: set[tuple[float, ...]] | None = None
 
     def append(self, theta: np.ndarray) -> None:
@@ -64,7 +70,8 @@ class PointLog:
             key = tuple(float(v) for v in row)
             if key not in self._seen:
                 self._seen.add(key)
-                lines.append(json.dumps({"names": self.names, "theta": list(key)}) + "\n")
+                item = {"names": self.names, "model": self.model, "theta": list(key)}
+                lines.append(json.dumps(item) + "\n")
         if lines:
             with open(self.path, "a+b") as fh:
                 if fh.tell() > 0:
@@ -75,7 +82,8 @@ class PointLog:
                 fh.flush()
 
     def read(self) -> np.ndarray:
-        """Distinct recorded points of problems with the same names, first seen first (`M x D`)."""
+        """Distinct recorded points of problems with the same names and model, first seen first
+        (`M x D`)."""
         rows: list[tuple[float, ...]] = []
         seen: set[tuple[float, ...]] = set()
         text = self.path.read_text(encoding="utf-8") if self.path.exists() else ""
@@ -84,7 +92,7 @@ class PointLog:
                 item = json.loads(line)
             except json.JSONDecodeError:
                 continue  # a line torn by a killed process
-            if item.get("names") != self.names:
+            if item.get("names") != self.names or item.get("model") != self.model:
                 continue
             row = tuple(float(v) for v in item["theta"])
             if row not in seen:
@@ -99,7 +107,8 @@ def point_log_for(problem: Any) -> PointLog | None:
     path = store_path(problem)
     if path is None:
         return None
-    return PointLog(path.with_name(path.name + ".points.jsonl"), list(problem.names))
+    model = model_identity(problem.model) if hasattr(problem, "model") else None
+    return PointLog(path.with_name(path.name + ".points.jsonl"), list(problem.names), model)
 
 
 @dataclass
