@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from torchshm.data.measurements import POSITION_TOL, Measurements
+from torchshm.data.measurements import Measurements
 
 CSV_COLUMNS = ("load", "x", "strain")
 
@@ -148,4 +148,4 @@ def _load_nc(path: Path) -> Measurements:
     )
 
 
-__all__ = ["save", "load", "POSITION_TOL"]
+__all__ = ["save", "load"]

@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
+from torchshm.data.measurements import POSITION_TOL as POSITION_TOLERANCE
+
 PARAMS_FILE = "params.json"
 LOG_FILE = "run.log"
-#: largest difference [m] between a position or load case in a strain file and the model's
-POSITION_TOLERANCE = 1e-6
 
 
 def write_params(

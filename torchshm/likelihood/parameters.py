@@ -14,13 +14,13 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from torchshm.data.measurements import POSITION_TOL as MATCH_TOL
+
 from torchshm.kernels import Kernel
 from torchshm.priors import Prior
 
 #: the statistical parameters, in the order they follow the physical ones
 STATISTICAL = ("sigma_a", "length")
-#: tolerance [m] when matching measured load cases and positions to the model's
-MATCH_TOL = 1e-6
 #: significant digits of a canonical parameter value
 SIGNIFICANT_DIGITS = 12
 

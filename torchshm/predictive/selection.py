@@ -11,8 +11,7 @@ from torch import Tensor
 
 from torchshm.kernels import get_kernel
 
-#: tolerance [m] when matching load cases and positions
-POSITION_TOL = 1e-6
+from torchshm.data.measurements import POSITION_TOL
 
 
 def problem_of(post: Any, problem: Any | None) -> Any:
