@@ -34,6 +34,7 @@ import sqlite3
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -41,6 +42,9 @@ from torchshm.forward.protocol import model_identity, output_shape
 from torchshm.storage import spool
 from torchshm.storage.keys import key_theta
 from torchshm.storage.record import Record, record_checksum
+
+if TYPE_CHECKING:
+    from torchshm.storage.integrity import IntegrityReport
 
 logger = logging.getLogger(__name__)
 
@@ -249,6 +253,13 @@ class EvaluationStore:
         """Identities of the models with stored evaluations."""
         with self._connect() as con:
             return [row[0] for row in con.execute("SELECT DISTINCT model FROM evaluations")]
+
+    def check(self) -> IntegrityReport:
+        """Integrity check of the file, every row's checksum and the spool (read only); see
+        :func:`torchshm.storage.integrity.check_store`."""
+        from torchshm.storage.integrity import check_store
+
+        return check_store(self.path)
 
     def deposit(self, record: Record) -> Path:
         """Write a record to the spool folder (safe from any host); see :meth:`ingest`."""
