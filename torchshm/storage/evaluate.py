@@ -17,6 +17,7 @@ import numpy as np
 
 from torchshm.forward.protocol import model_identity, output_shape
 from torchshm.storage import runners
+from torchshm.storage.interrupt import resumable
 from torchshm.storage.keys import theta_key, canonical_theta
 from torchshm.storage.record import Record
 from torchshm.storage.store import EvaluationStore
@@ -97,6 +98,8 @@ def evaluate(
     Raises:
         ValueError: if ``theta_p`` is not a finite `N x P` array, the model lacks ``x`` or
             ``loads``, or ``n_jobs`` is 0.
+        KeyboardInterrupt, SystemExit: on Ctrl-C or SIGTERM, after one line on stderr (see
+            :func:`torchshm.storage.interrupt.resumable`); every finished run stays stored.
     """
     theta = canonical_theta(theta_p)
     identity, shape = model_identity(model), output_shape(model)
@@ -117,12 +120,13 @@ def evaluate(
     task = runners.Task(model, identity, shape, store, retry_failed)
     new: dict[str, Record] = {}
     n_calls = 0
-    if todo and executor is not None:
-        new, n_calls = runners.run_submitit(task, todo, executor)
-    elif todo and n_jobs != 1 and len(todo) > 1:
-        new, n_calls = runners.run_joblib(task, todo, n_jobs)
-    elif todo:
-        new, n_calls = runners.run_serial(task, todo)
+    with resumable(f"evaluation of {identity}", None if store is None else store.path):
+        if todo and executor is not None:
+            new, n_calls = runners.run_submitit(task, todo, executor)
+        elif todo and n_jobs != 1 and len(todo) > 1:
+            new, n_calls = runners.run_joblib(task, todo, n_jobs)
+        elif todo:
+            new, n_calls = runners.run_serial(task, todo)
     if store is not None and new:
         store.ingest()  # results a worker could only deposit in the spool
     return _assemble(identity, theta, keys, {**known, **new}, shape, n_calls,
