@@ -21,7 +21,7 @@ _EXPORTS: dict[str, str] = {
     "KERNELS": "torchshm.kernels",
     "get_kernel": "torchshm.kernels",
     "log_likelihood": "torchshm.likelihood",
-    "Problem": "torchshm.likelihood",
+    "Problem": "torchshm.problem",
     "Uniform": "torchshm.priors",
     "Gamma": "torchshm.priors",
     "Normal": "torchshm.priors",

@@ -21,8 +21,7 @@ from typing import Iterable, Mapping
 
 import numpy as np
 
-#: tolerance [m] for matching load-case positions and sensor positions
-POSITION_TOL = 1e-6
+from torchshm.data.positions import POSITION_TOL
 
 AttrValue = float | int | str
 

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 from torchshm.inference.posterior import Posterior
 
 if TYPE_CHECKING:
-    from torchshm.likelihood import Problem
+    from torchshm.problem import Problem
 
 METHODS = ("vbmc", "emcee")
 

@@ -1,8 +1,10 @@
-"""The likelihood of Eq. (21) and the identification :class:`Problem`."""
+"""The likelihood of Eq. (21): a batched block-diagonal Gaussian (pure mathematics).
+
+The identification problem that uses it is :class:`torchshm.problem.Problem`.
+"""
 
 from __future__ import annotations
 
 from torchshm.likelihood.gaussian import log_likelihood
-from torchshm.likelihood.problem import Problem
 
-__all__ = ["Problem", "log_likelihood"]
+__all__ = ["log_likelihood"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
-from likelihood_models import LinearModel, synthetic
+from problem_models import LinearModel, synthetic
 
 import torchshm
 from torchshm import Gamma, Problem, Uniform, log_likelihood

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from likelihood_models import LinearModel
+from problem_models import LinearModel
 
 from torchshm import Problem
 from torchshm.storage import EvaluationStore

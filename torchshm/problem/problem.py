@@ -17,12 +17,13 @@ import numpy as np
 import torch
 from torch import Tensor
 
+from torchshm.data.positions import match_positions
 from torchshm.kernels import Kernel, get_kernel
 from torchshm.kernels.base import as_float64
 from torchshm.likelihood.evaluations import CachedModel, as_numpy
 from torchshm.likelihood.gaussian import log_likelihood
-from torchshm.likelihood.parameters import STATISTICAL, match_positions, read_priors
 from torchshm.priors import Prior, paper_priors
+from torchshm.problem.parameters import STATISTICAL, read_priors
 
 
 class Problem:

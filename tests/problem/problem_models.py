@@ -1,4 +1,4 @@
-"""Small hand-made forward models for the likelihood tests (no finite element model)."""
+"""Small hand-made forward models for the Problem tests (no finite element model)."""
 
 from __future__ import annotations
 

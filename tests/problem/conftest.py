@@ -1,10 +1,10 @@
-"""Fixtures of the likelihood tests: small forward models and their synthetic data."""
+"""Fixtures of the Problem tests: small forward models and their synthetic data."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from likelihood_models import PAPER_LOADS, LinearModel, c1_positions, synthetic
+from problem_models import PAPER_LOADS, LinearModel, c1_positions, synthetic
 
 from torchshm.data import Measurements
 
