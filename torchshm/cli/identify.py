@@ -9,6 +9,10 @@ command runs from (``hydra.job.chdir`` is false).
 A bad input (missing or malformed data file, unknown load case, unknown config option, inverted
 bounds) ends with exit status 2 and one line on stderr, ``torchshm-identify: error: ...``;
 ``HYDRA_FULL_ERROR=1`` shows the traceback instead.
+
+SIGTERM (Slurm's pre-emption and time limit) and Ctrl-C stop the run at once with one line on
+stderr: every finished model run is kept in the store, and the same command resumes (exit
+status 143 after SIGTERM, 130 after Ctrl-C).
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from omegaconf import DictConfig
 
 from torchshm.cli.errors import bad_input_in_job, report_bad_input
 from torchshm.config import CONF_DIR, CONFIG_NAME, normalize_overrides, register_configs, to_settings
+from torchshm.storage.interrupt import EXIT_SIGINT, resumable, store_of
 
 PROG = "torchshm-identify"
 
@@ -46,7 +51,8 @@ def _app(cfg: DictConfig) -> float | None:
         settings = to_settings(cfg)
         job = prepare_job(settings, base=Path(hydra.utils.get_original_cwd()))
     out_dir = Path(HydraConfig.get().runtime.output_dir)
-    result = run_job(job, out_dir)
+    with resumable(PROG, store_of(job.problem), how="run the same command again"):
+        result = run_job(job, out_dir)
     post = result.posterior
     log.info("%d model evaluations in %.1f s; outputs in %s",
              post.n_model_evaluations, result.wall_time_s, out_dir)
@@ -63,8 +69,11 @@ def main(argv: Sequence[str] | None = None) -> None:
     register_configs()
     args = sys.argv[1:] if argv is None else list(argv)
     sys.argv = [sys.argv[0] if sys.argv else PROG, *normalize_overrides(args)]
-    with report_bad_input(PROG):
-        _app()
+    try:
+        with report_bad_input(PROG):
+            _app()
+    except KeyboardInterrupt:  # Ctrl-C: the resume line is printed already, no traceback
+        raise SystemExit(EXIT_SIGINT) from None
 
 
 if __name__ == "__main__":
