@@ -16,6 +16,7 @@ from torchshm.config import (
     VBMCConfig,
     method_options,
     normalize_overrides,
+    register_configs,
     to_settings,
 )
 
@@ -28,7 +29,8 @@ def test_defaults_are_the_paper_sub_case_a2(compose_cfg) -> None:
     s = to_settings(compose_cfg())
     assert s.method.name is MethodName.vbmc and isinstance(s.method, VBMCConfig)
     assert s.kernel.name is KernelName.matern32
-    assert s.model.name is ModelName.surrogate
+    assert s.model == {"_target_": "torchshm.bridge705_surrogate"}
+    assert s.executor.kind == "serial" and s.executor.n_jobs == 1
     assert s.data.path is None and s.data.loads == [39.8] and s.data.resolution == 0.1
     assert s.predict.loads == [47.5, 55.1, 62.8, 70.4]
     assert s.likelihood.sigma_m == 0.05 and s.likelihood.sigma_e is None
@@ -37,7 +39,11 @@ def test_defaults_are_the_paper_sub_case_a2(compose_cfg) -> None:
 
 
 def test_kernel_group_has_every_kernel_of_table_6() -> None:
-    assert options("kernel") == sorted(torchshm.KERNELS)
+    from hydra.core.config_store import ConfigStore
+
+    register_configs()
+    stored = ConfigStore.instance().list("kernel")
+    assert sorted(n.removesuffix(".yaml") for n in stored) == sorted(torchshm.KERNELS)
     assert sorted(k.value for k in KernelName) == sorted(torchshm.KERNELS)
 
 
@@ -46,10 +52,11 @@ def test_each_kernel_option(compose_cfg, kernel: str) -> None:
     assert to_settings(compose_cfg(f"kernel={kernel}")).kernel.name.value == kernel
 
 
-@pytest.mark.parametrize("model", ["fe", "surrogate"])
-def test_each_model_option(compose_cfg, model: str) -> None:
-    assert options("model") == ["fe", "surrogate"]
-    assert to_settings(compose_cfg(f"model={model}")).model.name is ModelName(model)
+@pytest.mark.parametrize("model, target", [("fe", "torchshm.bridge705"),
+                                           ("surrogate", "torchshm.bridge705_surrogate")])
+def test_each_model_option(compose_cfg, model: str, target: str) -> None:
+    assert options("model") == sorted(m.value for m in ModelName)
+    assert to_settings(compose_cfg(f"model={model}")).model == {"_target_": target}
 
 
 def test_method_vbmc_options(compose_cfg) -> None:

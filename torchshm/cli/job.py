@@ -14,8 +14,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from torchshm.config import Config, DataConfig, ModelName, build_priors, method_options
+from torchshm.config import Config, DataConfig, build_priors, method_options, parameter_labels
 from torchshm.cli import outputs
+from torchshm.cli.models import instantiate_model, with_executor
 
 log = logging.getLogger(__name__)
 
@@ -63,11 +64,15 @@ def load_data(data: DataConfig, base: Path) -> Any:
     return measurements.downsample(data.resolution)
 
 
-def build_model(name: ModelName) -> Any:
-    """The forward model: the FE model of bridge 705 or its shipped surrogate."""
-    import torchshm
+def build_model(settings: Config, base: Path) -> Any:
+    """The forward model of ``settings.model`` (``_target_`` and keyword arguments), wrapped
+    for parallel runs when ``settings.executor`` is not serial.
 
-    return torchshm.bridge705() if name is ModelName.fe else torchshm.bridge705_surrogate()
+    Raises:
+        ValueError: in one line, for a ``_target_`` that does not import or build a model.
+    """
+    model = instantiate_model(settings.model, base)
+    return with_executor(model, settings.executor)
 
 
 def build_problem(settings: Config, model: Any, measurements: Any, base: Path,
@@ -109,6 +114,7 @@ class PreparedJob:
     measurements: Any
     held_out: Any
     t0: float
+    labels: dict[str, str] = field(default_factory=dict)
 
 
 def prepare_job(settings: Config, base: Path) -> PreparedJob:
@@ -128,10 +134,11 @@ def prepare_job(settings: Config, base: Path) -> PreparedJob:
     priors = build_priors(settings.priors)  # cheap checks first
     measurements = load_data(settings.data, base)
     held_out = measurements.select(settings.predict.loads) if settings.predict.loads else None
-    model = build_model(settings.model.name)
+    model = build_model(settings, base)
     problem = build_problem(settings, model, measurements, base, priors)
     _check_method_options(settings, len(problem.names))
-    return PreparedJob(settings, problem, measurements, held_out, t0)
+    labels = parameter_labels(settings.priors, getattr(model, "model", model))
+    return PreparedJob(settings, problem, measurements, held_out, t0, labels)
 
 
 def run_job(job: PreparedJob, out_dir: Path) -> JobResult:
@@ -152,7 +159,7 @@ def run_job(job: PreparedJob, out_dir: Path) -> JobResult:
         log_dir=out_dir / "tb", **method_options(settings.method),
     )
     result = JobResult(post, out_dir, 0.0)
-    result.files.update(outputs.write_posterior(post, out_dir, job.measurements.attrs))
+    result.files.update(outputs.write_posterior(post, out_dir, job.measurements.attrs, job.labels))
     if job.held_out is not None:
         result.predictive, files = outputs.write_predictive(post, job.held_out, settings.predict.n,
                                                             settings.seed, out_dir)

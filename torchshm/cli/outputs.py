@@ -53,8 +53,16 @@ def history_traces(history: Mapping[str, np.ndarray], names: list[str]) -> dict[
     }
 
 
-def write_posterior(post: Any, out_dir: Path, attrs: Mapping[str, Any]) -> dict[str, Path]:
-    """Posterior file, summary table (printed too) and figures of ``post`` in ``out_dir``."""
+def write_posterior(post: Any, out_dir: Path, attrs: Mapping[str, Any],
+                    labels: Mapping[str, str] | None = None) -> dict[str, Path]:
+    """Posterior file, summary table (printed too) and figures of ``post`` in ``out_dir``.
+
+    Args:
+        post: the posterior.
+        out_dir: the run folder.
+        attrs: metadata of the measurements (``truth_<name>`` marks the corner plot).
+        labels: axis label per parameter name (default: the names).
+    """
     files = {"posterior": post.save(out_dir / "posterior.nc")}
     summary = post.summary()
     files["summary"] = out_dir / "summary.csv"
@@ -62,7 +70,7 @@ def write_posterior(post: Any, out_dir: Path, attrs: Mapping[str, Any]) -> dict[
     print(post, flush=True)
     truths = truths_of(attrs, list(post.names))
     files["corner"] = plots.corner_plot({post.method: post.samples}, post.names,
-                                        out_dir / "corner.png", truths)
+                                        out_dir / "corner.png", truths, labels=labels)
     history = post.history or {}
     if "elbo" in history and len(history["elbo"]):
         files["elbo"] = plots.elbo_plot(history, out_dir / "elbo.png")
@@ -71,7 +79,7 @@ def write_posterior(post: Any, out_dir: Path, attrs: Mapping[str, Any]) -> dict[
     if traces and axis is not None:
         files["trace"] = plots.trace_plot(
             history[axis[0]], traces, out_dir / "trace.png", axis[1],
-            f"{post.method}: mean and 95 % interval",
+            f"{post.method}: mean and 95 % interval", labels=labels,
         )
     return files
 

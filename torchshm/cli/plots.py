@@ -1,7 +1,9 @@
 """Figures of a run: corner plot, ELBO trace, convergence traces, held-out predictions.
 
 Every function draws on a fresh figure with the non-interactive Agg backend, saves it to
-``path`` and closes it, so the functions can run headless and in parallel jobs.
+``path`` and closes it, so the functions can run headless and in parallel jobs. Parameter axes
+are labelled by ``labels`` (name -> text, e.g. from the priors' ``label`` and ``unit``, see
+:func:`torchshm.config.parameter_labels`), else by the parameter names.
 """
 
 from __future__ import annotations
@@ -11,13 +13,6 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-#: axis labels of the parameters (units as in the paper)
-LABELS = {
-    "E_c": r"$E_c$ [GPa]",
-    "log10_K_r": r"$\log_{10} K_r$ [N·mm/rad]",
-    "sigma_a": r"$\sigma_a$ [µε]",
-    "length": r"$l$ [m]",
-}
 #: colours of overlaid posteriors (matplotlib's default cycle)
 COLOURS = ("C0", "C1", "C2", "C3")
 
@@ -34,6 +29,7 @@ def _pyplot():  # type: ignore[no-untyped-def]
 def corner_plot(
     samples: Mapping[str, np.ndarray], names: Sequence[str], path: Path,
     truths: Mapping[str, float] | None = None, max_points: int = 20_000,
+    labels: Mapping[str, str] | None = None,
 ) -> Path:
     """1-D and 2-D marginals of one or more posteriors, overlaid (paper, Fig. 4).
 
@@ -43,6 +39,7 @@ def corner_plot(
         path: the PNG file.
         truths: name -> true value, marked with lines where known.
         max_points: at most this many samples of each posterior are drawn (evenly thinned).
+        labels: axis label per name (default: the name).
     """
     import corner
 
@@ -56,7 +53,7 @@ def corner_plot(
         s = s[:: max(1, s.shape[0] // max_points)]
         colour = COLOURS[i % len(COLOURS)]
         fig = corner.corner(
-            s, fig=fig, labels=[LABELS.get(n, n) for n in names], range=ranges, color=colour,
+            s, fig=fig, labels=[(labels or {}).get(n, n) for n in names], range=ranges, color=colour,
             truths=truth_row if i == 0 and any(t is not None for t in truth_row) else None,
             truth_color="k", plot_datapoints=False, plot_density=False, fill_contours=False,
             levels=(0.393, 0.865), smooth=1.0, hist_kwargs={"density": True},
@@ -104,6 +101,7 @@ def elbo_plot(history: Mapping[str, np.ndarray], path: Path) -> Path:
 def trace_plot(
     x: np.ndarray, traces: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray]],
     path: Path, xlabel: str, title: str = "", marks: Mapping[str, float] | None = None,
+    labels: Mapping[str, str] | None = None,
 ) -> Path:
     """Mean and 95 % interval of each parameter against evaluations (paper, Figs. 5 and 6).
 
@@ -114,6 +112,7 @@ def trace_plot(
         xlabel: label of the abscissa.
         title: figure title.
         marks: label -> abscissa of a vertical dashed line (e.g. convergence).
+        labels: axis label per name (default: the name).
     """
     plt = _pyplot()
     names = list(traces)
@@ -123,7 +122,7 @@ def trace_plot(
         mean, lower, upper = (np.asarray(a) for a in traces[name])
         ax.plot(x, mean, color="C0", lw=1.2)
         ax.fill_between(x, lower, upper, color="C0", alpha=0.3, lw=0)
-        ax.set_ylabel(LABELS.get(name, name))
+        ax.set_ylabel((labels or {}).get(name, name))
         for j, (label, at) in enumerate((marks or {}).items()):
             ax.axvline(at, color=COLOURS[(j + 1) % len(COLOURS)], ls="--", lw=1, label=label)
     np.atleast_1d(axes)[-1].set_xlabel(xlabel)
@@ -158,4 +157,4 @@ def predictive_plot(pred: object, measurements: object, path: Path) -> Path:
     return path
 
 
-__all__ = ["LABELS", "corner_plot", "elbo_plot", "predictive_plot", "trace_plot"]
+__all__ = ["corner_plot", "elbo_plot", "predictive_plot", "trace_plot"]

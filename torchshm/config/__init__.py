@@ -7,12 +7,13 @@ turns the composed config into typed dataclasses, :func:`build_priors` into prio
 from __future__ import annotations
 
 from torchshm.config.convert import check_known_keys, method_options, to_settings
-from torchshm.config.priors import build_prior, build_priors
+from torchshm.config.priors import build_prior, build_priors, parameter_labels
 from torchshm.config.schema import (
     Config,
     DataConfig,
     Distribution,
     EmceeConfig,
+    ExecutorConfig,
     KernelConfig,
     KernelName,
     LikelihoodConfig,
@@ -30,6 +31,7 @@ from torchshm.config.store import (
     NUMERIC_GROUPS,
     normalize_overrides,
     register_configs,
+    replace_prior_override,
     run_dirname,
 )
 
@@ -41,6 +43,7 @@ __all__ = [
     "DataConfig",
     "Distribution",
     "EmceeConfig",
+    "ExecutorConfig",
     "KernelConfig",
     "KernelName",
     "LikelihoodConfig",
@@ -56,7 +59,9 @@ __all__ = [
     "build_priors",
     "method_options",
     "normalize_overrides",
+    "parameter_labels",
     "register_configs",
+    "replace_prior_override",
     "run_dirname",
     "to_settings",
 ]

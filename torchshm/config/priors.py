@@ -1,4 +1,5 @@
-"""Priors from their config entries (``conf/priors/*.yaml``) to ``torchshm`` prior objects."""
+"""Priors from their config entries (``conf/priors/*.yaml``) to ``torchshm`` prior objects,
+and the parameters' display labels (``label``, ``unit``) from the same entries."""
 
 from __future__ import annotations
 
@@ -13,6 +14,8 @@ _REQUIRED: dict[Distribution, tuple[str, ...]] = {
     Distribution.gamma: ("alpha", "beta"),
     Distribution.normal: ("mean", "sd"),
 }
+#: fields that only name the parameter in plots and tables
+_DISPLAY = ("label", "unit")
 _OPTIONAL: dict[Distribution, tuple[str, ...]] = {
     Distribution.uniform: ("plausible",),
     Distribution.gamma: ("bounds", "plausible"),
@@ -24,8 +27,9 @@ def build_prior(name: str, entry: PriorConfig) -> object:
     """The prior of one parameter (a ``torchshm`` prior, or a float for ``fixed``).
 
     A ``fixed`` entry needs ``value`` and ignores its other fields, so that
-    ``priors.E_c={dist:fixed,value:35}`` fixes a parameter; the other families accept only
-    their own fields, so that a misplaced bound is reported rather than ignored.
+    ``priors.<name>={dist:fixed,value:35}`` fixes a parameter; the other families accept only
+    their own fields (and ``label``, ``unit``), so that a misplaced bound is reported rather
+    than ignored.
 
     Args:
         name: the parameter name, used in error messages (``priors.<name>``).
@@ -42,7 +46,8 @@ def build_prior(name: str, entry: PriorConfig) -> object:
         if entry.value is None:
             raise ValueError(f"priors.{name}: a fixed prior needs value")
         return float(entry.value)
-    given = {f.name for f in fields(entry) if f.name != "dist" and getattr(entry, f.name) is not None}
+    given = {f.name for f in fields(entry)
+             if f.name not in _DISPLAY and f.name != "dist" and getattr(entry, f.name) is not None}
     missing = [k for k in _REQUIRED[dist] if k not in given]
     if missing:
         raise ValueError(f"priors.{name}: a {dist.value} prior needs {', '.join(missing)}")
@@ -73,6 +78,27 @@ def build_priors(entries: Mapping[str, PriorConfig]) -> dict[str, object]:
     return {name: build_prior(name, entry) for name, entry in entries.items()}
 
 
+def parameter_labels(entries: Mapping[str, PriorConfig], model: object = None) -> dict[str, str]:
+    """Axis label of each parameter: ``"<label> [<unit>]"``, from its priors entry or the model.
+
+    The entry's ``label`` and ``unit`` come first; a model may supply the others through
+    optional mappings ``model.labels`` and ``model.units`` (name -> text). A parameter with
+    neither is labelled by its name (without a unit).
+
+    Args:
+        entries: the priors entries, by parameter name.
+        model: the forward model, or ``None``.
+    """
+    model_labels = getattr(model, "labels", None) or {}
+    model_units = getattr(model, "units", None) or {}
+    out = {}
+    for name, entry in entries.items():
+        label = entry.label or model_labels.get(name) or name
+        unit = entry.unit or model_units.get(name)
+        out[name] = f"{label} [{unit}]" if unit else str(label)
+    return out
+
+
 def _pair(name: str, what: str, values: list[float] | None) -> tuple[float, float] | None:
     """``values`` as a ``(lower, upper)`` pair with lower < upper, or ``None``."""
     if values is None:
@@ -85,4 +111,4 @@ def _pair(name: str, what: str, values: list[float] | None) -> tuple[float, floa
     return lower, upper
 
 
-__all__ = ["build_prior", "build_priors"]
+__all__ = ["build_prior", "build_priors", "parameter_labels"]

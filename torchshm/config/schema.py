@@ -7,10 +7,11 @@ the schema alone documents each option; the YAML files are what users read and e
 
 Layout of the composed config::
 
-    kernel:     {name}                                 # group kernel/
+    kernel:     {name}                                 # group kernel/ (from the kernel registry)
     method:     {name, <options of the method>}        # group method/
-    model:      {name}                                 # group model/
-    priors:     {<parameter>: {dist, a, b, ...}}       # group priors/ (Tables 2 and 4)
+    model:      {_target_, <keyword arguments>}        # group model/ (Hydra instantiate)
+    executor:   {kind, folder, n_jobs, params}         # group executor/ (model runs in parallel)
+    priors:     {<parameter>: {dist, a, b, ..., label, unit}}   # group priors/ (Tables 2 and 4)
     data:       {path, campaign_seed, loads, resolution}   # resolution from group resolution/
     predict:    {loads, n}
     likelihood: {sigma_m, sigma_e}
@@ -21,29 +22,26 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Dict, List, Optional
+from typing import Any, Dict, List, Optional
 
 from omegaconf import MISSING
+
+from torchshm.kernels import kernel_names
 
 # OmegaConf reads the annotations at runtime and does not accept PEP 604 unions (``X | None``)
 # or built-in generics (``list[float]``) in structured configs, hence the ``typing`` forms.
 
 
-class KernelName(Enum):
-    """The discrepancy kernels of the paper's Table 6 (``torchshm.KERNELS``)."""
-
-    independent = "independent"
-    exponential = "exponential"
-    matern32 = "matern32"
-    matern52 = "matern52"
-    squared_exponential = "squared_exponential"
+#: The registered discrepancy kernels (:func:`torchshm.kernels.kernel_names`, the paper's
+#: Table 6 and any kernel class defined before this module is imported), one member each.
+KernelName = Enum("KernelName", {name: name for name in kernel_names()}, module=__name__)
 
 
 class ModelName(Enum):
-    """The shipped forward models of bridge 705."""
+    """The shipped model configs (``conf/model/<name>.yaml``) of bridge 705."""
 
-    fe = "fe"  # torchshm.bridge705(): the finite element model
-    surrogate = "surrogate"  # torchshm.bridge705_surrogate(): its GP surrogate
+    fe = "fe"  # _target_: torchshm.bridge705, the finite element model
+    surrogate = "surrogate"  # _target_: torchshm.bridge705_surrogate, its GP surrogate
 
 
 class MethodName(Enum):
@@ -71,9 +69,27 @@ class KernelConfig:
 
 @dataclass
 class ModelConfig:
-    """Forward model (group ``model/``)."""
+    """Forward model (group ``model/``): what Hydra's ``instantiate`` builds.
 
-    name: ModelName = ModelName.surrogate
+    ``_target_`` is the dotted path of a class or factory (importable from the directory the
+    command runs from, or installed), and every other key of the node is a keyword argument,
+    e.g. ``{_target_: torchshm.ExternalModel, command: [...], x: [...], loads: [...]}``. The
+    node is kept as a plain dict (:attr:`Config.model`); this class documents the shipped
+    default only.
+    """
+
+    _target_: str = "torchshm.bridge705_surrogate"
+
+
+@dataclass
+class ExecutorConfig:
+    """Where forward-model runs go (group ``executor/``): the arguments of
+    :func:`torchshm.storage.evaluation_options` (``kind`` serial, joblib, local, slurm, debug)."""
+
+    kind: str = "serial"
+    folder: str = "runs/submitit"  # submitit's job folder (local, slurm, debug)
+    n_jobs: int = 1  # worker processes (joblib); -1 uses every core
+    params: Dict[str, Any] = field(default_factory=dict)  # submitit parameters
 
 
 @dataclass
@@ -110,6 +126,8 @@ class EmceeConfig(MethodConfig):
 class PriorConfig:
     """One prior (group ``priors/``); only the fields of ``dist`` may be set.
 
+    ``label`` and ``unit`` only name the parameter in plots and tables (any family).
+
     ``bounds`` are the hard bounds ``[lower, upper]`` of a gamma or normal prior (a uniform
     prior's are ``[a, b]``); ``plausible`` the plausible bounds VBMC needs (paper, Table 4).
     """
@@ -124,6 +142,8 @@ class PriorConfig:
     value: Optional[float] = None
     bounds: Optional[List[float]] = None
     plausible: Optional[List[float]] = None
+    label: Optional[str] = None  # axis label in plots (default: the parameter name)
+    unit: Optional[str] = None  # unit shown after the label, e.g. GPa
 
 
 @dataclass
@@ -158,7 +178,8 @@ class Config:
 
     kernel: KernelConfig = MISSING
     method: MethodConfig = MISSING
-    model: ModelConfig = MISSING
+    model: Any = MISSING  # a ModelConfig-like node: {_target_, <keyword arguments>}
+    executor: ExecutorConfig = field(default_factory=ExecutorConfig)
     priors: Dict[str, PriorConfig] = MISSING
     data: DataConfig = field(default_factory=DataConfig)
     predict: PredictConfig = field(default_factory=PredictConfig)
@@ -172,6 +193,7 @@ __all__ = [
     "DataConfig",
     "Distribution",
     "EmceeConfig",
+    "ExecutorConfig",
     "KernelConfig",
     "KernelName",
     "LikelihoodConfig",

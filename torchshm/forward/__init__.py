@@ -9,12 +9,14 @@ from __future__ import annotations
 
 from torchshm.forward.external import ExternalModel, ExternalModelError
 from torchshm.forward.files import read_params, read_strains, write_strains
+from torchshm.forward.parallel import ParallelModel
 from torchshm.forward.protocol import ForwardModel, as_tensor, model_identity, output_shape
 
 __all__ = [
     "ExternalModel",
     "ExternalModelError",
     "ForwardModel",
+    "ParallelModel",
     "as_tensor",
     "model_identity",
     "output_shape",

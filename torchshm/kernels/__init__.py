@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from torchshm.kernels.base import MIN_LENGTH, Kernel
-from torchshm.kernels.registry import KERNELS, get_kernel
+from torchshm.kernels.registry import KERNELS, get_kernel, kernel_names
 from torchshm.kernels.stationary import (
     Exponential,
     Independent,
@@ -22,4 +22,5 @@ __all__ = [
     "Matern52",
     "SquaredExponential",
     "get_kernel",
+    "kernel_names",
 ]

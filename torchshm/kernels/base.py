@@ -8,11 +8,14 @@ of a whole batch of parameter vectors (shape ``...``) at once.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 import torch
 from torch import Tensor
+
+#: name -> kernel class, in the order the classes were defined (filled by ``Kernel`` itself)
+REGISTRY: dict[str, type[Kernel]] = {}
 
 #: Smallest correlation length [m] used in a computation. Shorter lengths are raised to it: the
 #: correlation of two distinct points more than ~1e-6 m apart is then exactly 0 in float64, as it
@@ -35,8 +38,17 @@ def distances(x1: Tensor, x2: Tensor) -> Tensor:
 class Kernel(ABC):
     """A stationary kernel ``k(d) = sigma_a**2 * rho(d; length)`` of the distance ``d``.
 
-    Subclasses set :attr:`name` and implement :meth:`correlation`; adding a kernel to
-    :data:`torchshm.kernels.KERNELS` means one such class and its entry in the registry.
+    Subclasses set :attr:`name` and implement :meth:`correlation`. A subclass that sets
+    :attr:`name` in its own body registers itself under that name (:data:`REGISTRY`): it is
+    then found by :func:`torchshm.kernels.get_kernel`, listed by
+    :func:`torchshm.kernels.kernel_names` and offered as ``kernel=<name>`` by
+    ``torchshm-identify``. Adding a kernel is this one class (and its test)::
+
+        class Cauchy(Kernel):
+            name = "cauchy"
+
+            def correlation(self, d, length):
+                return 1.0 / (1.0 + scaled_distance(d, length).square())
     """
 
     #: name used in configuration files and in :data:`torchshm.kernels.KERNELS`
@@ -45,6 +57,21 @@ class Kernel(ABC):
     has_length: ClassVar[bool] = True
     #: whether every covariance matrix of distinct points is diagonal
     is_diagonal: ClassVar[bool] = False
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Register a subclass that names itself (``name`` set in its own class body)."""
+        super().__init_subclass__(**kwargs)
+        name = cls.__dict__.get("name")
+        if name is None:
+            return
+        if not isinstance(name, str) or not name.isidentifier():
+            raise TypeError(f"kernel {cls.__qualname__}: name must be an identifier, got {name!r}")
+        known = REGISTRY.get(name)
+        if known is not None and known.__qualname__ != cls.__qualname__:
+            raise TypeError(
+                f"kernel {cls.__qualname__}: name {name!r} is already taken by {known.__qualname__}"
+            )
+        REGISTRY[name] = cls
 
     @abstractmethod
     def correlation(self, d: Tensor, length: Tensor | None) -> Tensor:
