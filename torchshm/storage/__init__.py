@@ -8,6 +8,8 @@ parameter vectors in process, in local processes (joblib) or as submitit jobs (S
 
 from __future__ import annotations
 
+from torchshm.storage.cache import MemoryBackend, StoreBackend, open_backend
+from torchshm.storage.cached_model import CachedModel
 from torchshm.storage.evaluate import EvaluationResult, evaluate
 from torchshm.storage.executors import evaluation_options, make_executor
 from torchshm.storage.keys import canonical_theta, theta_key
@@ -15,12 +17,16 @@ from torchshm.storage.record import Record
 from torchshm.storage.store import EvaluationStore
 
 __all__ = [
+    "CachedModel",
     "EvaluationResult",
     "EvaluationStore",
     "Record",
     "canonical_theta",
     "evaluate",
     "evaluation_options",
+    "MemoryBackend",
+    "StoreBackend",
+    "open_backend",
     "make_executor",
     "theta_key",
 ]
