@@ -7,6 +7,8 @@ import torch
 from scipy import stats
 
 from torchshm.data import Measurements
+from torchshm.kernels import get_kernel
+from torchshm.problem import ParameterSplit
 
 
 class LinearModel:
@@ -55,6 +57,13 @@ class FakeProblem:
         self.names = [k for k, v in self.priors.items() if not isinstance(v, float)]
         self._theta: list[np.ndarray] = []
         self._outputs: list[np.ndarray] = []
+
+    @property
+    def split(self) -> ParameterSplit:
+        """The parameter split of the current priors (tests change them after construction)."""
+        return ParameterSplit.from_priors(
+            self.priors, self.physical_names, get_kernel(self.kernel).has_length
+        )
 
     def model_outputs(self, theta_p: np.ndarray) -> torch.Tensor:
         out = self.model(torch.as_tensor(theta_p))

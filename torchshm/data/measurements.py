@@ -21,7 +21,7 @@ from typing import Iterable, Mapping
 
 import numpy as np
 
-from torchshm.data.positions import POSITION_TOL
+from torchshm.data.positions import POSITION_TOL, nearest_index
 
 AttrValue = float | int | str
 
@@ -95,14 +95,13 @@ class Measurements:
             wanted = np.atleast_1d(np.asarray(loads, dtype=np.float64)).reshape(-1)
         except (TypeError, ValueError):
             raise ValueError(f"load cases must be numbers, got {loads!r}") from None
-        index = []
-        for load in wanted:
-            hits = np.flatnonzero(np.abs(self.loads - load) <= POSITION_TOL)
-            if hits.size == 0:
-                known = ", ".join(f"{v:g}" for v in self.loads)
-                raise ValueError(f"unknown load case {load:g} (measured load cases: {known})")
-            index.append(int(hits[0]))
-        return np.asarray(index, dtype=np.int64)
+        index, found = nearest_index(wanted, self.loads)
+        if not found.all():
+            known = ", ".join(f"{v:g}" for v in self.loads)
+            raise ValueError(
+                f"unknown load case {wanted[~found][0]:g} (measured load cases: {known})"
+            )
+        return index.astype(np.int64)
 
     def select(self, loads: Iterable[float] | float) -> Measurements:
         """The load cases `loads` (front-axle positions [m]), in the order given."""

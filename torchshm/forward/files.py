@@ -19,7 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from torchshm.data.measurements import POSITION_TOL as POSITION_TOLERANCE
+from torchshm.data.positions import POSITION_TOL as POSITION_TOLERANCE
+from torchshm.data.positions import nearest_index
 
 PARAMS_FILE = "params.json"
 LOG_FILE = "run.log"
@@ -147,18 +148,12 @@ def _read_csv(path: Path, x: np.ndarray, loads: np.ndarray) -> np.ndarray:
 
 
 def _match(values: np.ndarray, reference: np.ndarray, name: str, what: str) -> np.ndarray:
-    """Index into ``reference`` of each value (nearest, within POSITION_TOLERANCE)."""
+    """Index into ``reference`` of each value (:func:`~torchshm.data.positions.nearest_index`)."""
     if not np.isfinite(values).all():
         raise ValueError(f"{name}: a {what} value is NaN or inf")
-    order = np.argsort(reference)
-    ordered = reference[order]
-    above = np.clip(np.searchsorted(ordered, values), 0, len(ordered) - 1)
-    below = np.clip(above - 1, 0, len(ordered) - 1)
-    closer_below = np.abs(values - ordered[below]) < np.abs(values - ordered[above])
-    nearest = np.where(closer_below, below, above)
-    far = np.abs(values - ordered[nearest]) > POSITION_TOLERANCE
-    if far.any():
+    index, found = nearest_index(values, reference)
+    if not found.all():
         raise ValueError(
-            f"{name}: {what} {values[far][0]:g} matches none of the model's {what} values"
+            f"{name}: {what} {values[~found][0]:g} matches none of the model's {what} values"
         )
-    return order[nearest]
+    return index

@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from torchshm.problem.prior import JointPrior
+
 #: the quantiles reported by :meth:`Posterior.summary` (the 95 % equal-tailed interval)
 SUMMARY_QUANTILES = (0.025, 0.975)
 
@@ -130,6 +132,13 @@ class Posterior:
     variational: Any = field(default=None, repr=False)
     n_chains: int = 1
     problem: Any = field(default=None, repr=False, compare=False)
+
+    @property
+    def prior(self) -> JointPrior:
+        """The joint prior of :attr:`names` (the problem's when attached, else from :attr:`priors`)."""
+        if self.problem is not None:
+            return self.problem.prior
+        return JointPrior(self.priors, self.names)
 
     @property
     def n_samples(self) -> int:

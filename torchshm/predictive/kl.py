@@ -1,16 +1,21 @@
 """Information gain from prior to posterior: KL divergence by Monte Carlo (paper, Eq. 19).
 
 ``D_KL(q || p) = E_q[log q(theta) - log p(theta)]`` with ``q`` the posterior's density
-(``post.log_pdf``, the variational density for VBMC) and ``p`` the prior of the inferred
-parameters, estimated as the mean over ``n`` draws of ``q``.
+(``post.log_pdf``, the variational density for VBMC) and ``p`` the joint prior of the inferred
+parameters (:class:`~torchshm.problem.JointPrior`, the one the problem used), estimated as the
+mean over ``n`` draws of ``q``.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
-import torch
+
+from torchshm.problem.prior import JointPrior
+
+if TYPE_CHECKING:
+    from torchshm.inference.protocol import PosteriorLike
 
 
 class KLEstimate(float):
@@ -42,28 +47,7 @@ class KLEstimate(float):
         return f"KLEstimate(value={self.value!r}, se={self.se!r}, n={self.n})"
 
 
-def log_prior(priors: Any, names: list[str], theta: np.ndarray) -> np.ndarray:
-    """Log prior density `n` of draws `n x D` under independent priors of the named columns.
-
-    Args:
-        priors: name -> prior with ``log_prob`` (torch tensors or numpy arrays accepted), or a
-            number for a fixed parameter; fixed parameters must not be among ``names``.
-        names: `D` names of the columns of ``theta``.
-        theta: `n x D` parameter values.
-    """
-    total = np.zeros(theta.shape[0])
-    for k, name in enumerate(names):
-        prior = priors[name]
-        if not hasattr(prior, "log_prob"):
-            raise ValueError(f"kl_divergence: parameter {name!r} is inferred but its prior {prior!r} has no log_prob")
-        values = prior.log_prob(torch.as_tensor(theta[:, k], dtype=torch.float64))
-        if isinstance(values, torch.Tensor):
-            values = values.detach().cpu().numpy()
-        total += np.asarray(values, dtype=np.float64).reshape(-1)
-    return total
-
-
-def kl_divergence(post: Any, n: int = 10_000, seed: int = 0) -> KLEstimate:
+def kl_divergence(post: PosteriorLike, n: int = 10_000, seed: int = 0) -> KLEstimate:
     """KL divergence from the prior to the posterior, ``D_KL(posterior || prior)`` (Eq. 19).
 
     Args:
@@ -82,7 +66,10 @@ def kl_divergence(post: Any, n: int = 10_000, seed: int = 0) -> KLEstimate:
     names = list(post.names)
     theta = np.asarray(post.sample(n, np.random.default_rng(seed)), dtype=np.float64)
     log_q = np.asarray(post.log_pdf(theta), dtype=np.float64).reshape(-1)
-    log_p = log_prior(post.priors, names, theta)
+    try:
+        log_p = np.asarray(JointPrior(post.priors, names).log_prob(theta), dtype=np.float64)
+    except ValueError as err:
+        raise ValueError(f"kl_divergence: {err}") from None
     if not np.all(np.isfinite(log_p)):
         raise ValueError("kl_divergence: some posterior draws lie outside the prior's support")
     diff = log_q - log_p

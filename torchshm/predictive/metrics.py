@@ -16,8 +16,8 @@ from typing import Any, Iterable
 
 import numpy as np
 
+from torchshm.data.positions import nearest_index
 from torchshm.predictive.result import PredictiveResult
-from torchshm.predictive.selection import POSITION_TOL
 
 
 @dataclass(frozen=True)
@@ -57,16 +57,16 @@ def aligned(pred: PredictiveResult, measurements: Any, loads: Iterable[float] | 
         ValueError: when a load case is not measured or predicted, or no position is shared.
     """
     if loads is None:
-        measured = np.asarray(measurements.loads, dtype=np.float64)
-        loads = [v for v in pred.loads.tolist() if np.any(np.abs(measured - v) <= POSITION_TOL)]
+        _, measured = nearest_index(pred.loads.numpy(), measurements.loads)
+        loads = pred.loads.numpy()[measured].tolist()
         if not loads:
             raise ValueError("metrics: no load case of the prediction is measured")
     loads = np.atleast_1d(np.asarray(list(loads), dtype=np.float64))
     rows = [pred.select(v) for v in loads]
     y = measurements.select(loads).y
     px, mx = pred.x.numpy(), np.asarray(measurements.x, dtype=np.float64)
-    gap = np.abs(px[:, None] - mx[None, :])
-    shared_p, shared_m = np.nonzero(gap <= POSITION_TOL)
+    match, found = nearest_index(px, mx)
+    shared_p, shared_m = np.flatnonzero(found), match[found]
     if shared_p.size == 0:
         raise ValueError("metrics: the prediction and the measurements share no position")
     pick = lambda t: t.numpy()[rows][:, shared_p]  # noqa: E731

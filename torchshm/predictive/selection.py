@@ -2,19 +2,24 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
-from typing import Any, Iterable
+from typing import TYPE_CHECKING, Iterable
 
 import numpy as np
 import torch
 from torch import Tensor
 
-from torchshm.kernels import get_kernel
+from torchshm.arrays import as_numpy
+from torchshm.data.positions import nearest_index
+from torchshm.forward.protocol import ForwardModel
 
-from torchshm.data.measurements import POSITION_TOL
+if TYPE_CHECKING:
+    from torchshm.inference.protocol import PosteriorLike
+    from torchshm.problem import Problem
 
 
-def problem_of(post: Any, problem: Any | None) -> Any:
+def problem_of(post: PosteriorLike, problem: Problem | None) -> Problem:
     """The problem to use: ``problem`` when given, else ``post.problem``.
 
     Raises:
@@ -29,77 +34,64 @@ def problem_of(post: Any, problem: Any | None) -> Any:
 
 
 def _match(values: np.ndarray, wanted: np.ndarray, what: str) -> Tensor:
-    """Indices of ``wanted`` in ``values`` within POSITION_TOL; ValueError naming a missing one."""
-    index = []
-    for value in wanted:
-        hits = np.flatnonzero(np.abs(values - value) <= POSITION_TOL)
-        if hits.size == 0:
-            known = ", ".join(f"{v:g}" for v in values[:20])
-            raise ValueError(f"unknown {what} {value:g} (the model has {known}{'...' if values.size > 20 else ''})")
-        index.append(int(hits[0]))
+    """Indices of ``wanted`` in ``values`` (:func:`~torchshm.data.positions.nearest_index`);
+    ValueError naming a missing one."""
+    index, found = nearest_index(wanted, values)
+    if not found.all():
+        value = float(np.asarray(wanted, dtype=np.float64).ravel()[~found][0])
+        known = ", ".join(f"{v:g}" for v in values[:20])
+        raise ValueError(f"unknown {what} {value:g} (the model has {known}{'...' if values.size > 20 else ''})")
     return torch.as_tensor(index, dtype=torch.long)
 
 
-def _array(values: Any) -> np.ndarray:
-    if isinstance(values, Tensor):
-        return values.detach().cpu().numpy().astype(np.float64)
-    return np.asarray(values, dtype=np.float64)
-
-
-def load_index(model: Any, loads: Iterable[float] | float) -> Tensor:
+def load_index(model: ForwardModel, loads: Iterable[float] | float) -> Tensor:
     """Indices `L'` of ``loads`` (front-axle positions [m]) in ``model.loads``."""
-    wanted = np.atleast_1d(_array(list(loads) if not np.isscalar(loads) else [loads]))
+    wanted = np.atleast_1d(as_numpy(list(loads) if not np.isscalar(loads) else [loads]))
     if wanted.size == 0:
         raise ValueError("no load case to predict")
-    return _match(_array(model.loads), wanted, "load case")
+    return _match(as_numpy(model.loads), wanted, "load case")
 
 
-def position_index(problem: Any, positions: str) -> tuple[Tensor, Tensor]:
+def position_index(problem: Problem, positions: str) -> tuple[Tensor, Tensor]:
     """Indices into ``model.x`` and the positions `n_x` [m] of the prediction.
 
     Args:
         problem: the problem (``model.x``, ``measurements.x``).
         positions: ``"measured"`` (the problem's measured positions) or ``"model"`` (all).
     """
-    model_x = _array(problem.model.x)
+    model_x = as_numpy(problem.model.x)
     if positions == "model":
         index = torch.arange(model_x.size)
     elif positions == "measured":
-        index = _match(model_x, _array(problem.measurements.x), "position")
+        index = _match(model_x, as_numpy(problem.measurements.x), "position")
     else:
         raise ValueError(f"positions must be 'measured' or 'model', got {positions!r}")
     return index, torch.as_tensor(model_x)[index]
 
 
-def parameter_columns(problem: Any, names: list[str], theta: np.ndarray) -> tuple[Tensor, Tensor, Tensor | None]:
+def parameter_columns(
+    problem: Problem, names: list[str], theta: np.ndarray
+) -> tuple[Tensor, Tensor, Tensor | None]:
     """Split posterior draws into the model's `theta_p` and the discrepancy parameters.
 
-    Parameters absent from ``names`` take their fixed value from ``problem.priors``.
+    Uses the problem's :class:`~torchshm.problem.ParameterSplit` with the posterior's column
+    names: parameters absent from ``names`` take their fixed value from the problem.
 
     Args:
-        problem: the problem (``physical_names``, ``priors``, ``kernel``).
+        problem: the problem (its ``split``).
         names: `D` names of the columns of ``theta``.
         theta: `n x D` posterior draws.
 
     Returns:
         ``theta_p`` (`n x P`, in model order), ``sigma_a`` (`n`) [µε] and ``length`` (`n`) [m],
         ``None`` for a kernel without length.
+
+    Raises:
+        ValueError: naming a parameter that is neither among ``names`` nor fixed.
     """
-    priors = problem.priors
-
-    def column(name: str) -> np.ndarray:
-        if name in names:
-            return theta[:, names.index(name)]
-        fixed = priors.get(name) if hasattr(priors, "get") else None
-        if isinstance(fixed, (int, float)) and not isinstance(fixed, bool):
-            return np.full(theta.shape[0], float(fixed))
-        raise ValueError(f"parameter {name!r} is neither inferred nor fixed to a number")
-
-    theta_p = np.column_stack([column(name) for name in problem.physical_names])
-    sigma_a = column("sigma_a")
-    length = column("length") if get_kernel(problem.kernel).has_length else None
-    as_t = lambda a: torch.as_tensor(np.ascontiguousarray(a), dtype=torch.float64)  # noqa: E731
-    return as_t(theta_p), as_t(sigma_a), None if length is None else as_t(length)
+    split = dataclasses.replace(problem.split, names=tuple(names))
+    theta_p, sigma_a, length = split.split(np.ascontiguousarray(theta, dtype=np.float64))
+    return theta_p.contiguous(), sigma_a.contiguous(), None if length is None else length.contiguous()
 
 
 @dataclass

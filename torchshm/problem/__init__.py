@@ -3,7 +3,8 @@ into the log posterior that VBMC and emcee sample."""
 
 from __future__ import annotations
 
-from torchshm.problem.parameters import STATISTICAL, read_priors
+from torchshm.problem.parameters import STATISTICAL, ParameterSplit, read_priors
+from torchshm.problem.prior import JointPrior
 from torchshm.problem.problem import Problem
 
-__all__ = ["STATISTICAL", "Problem", "read_priors"]
+__all__ = ["STATISTICAL", "JointPrior", "ParameterSplit", "Problem", "read_priors"]

@@ -1,7 +1,8 @@
-"""How a :class:`~torchshm.problem.Problem` reads its priors.
+"""How a :class:`~torchshm.problem.Problem` reads its priors and splits its parameters.
 
-Which entries of a priors dict are inferred or fixed, physical or statistical, and in which
-order the physical ones are passed to the forward model.
+Which entries of a priors dict are inferred or fixed, physical or statistical, in which order
+the physical ones are passed to the forward model (:func:`read_priors`), and how a parameter
+vector splits into the model's and the discrepancy's parameters (:class:`ParameterSplit`).
 """
 
 from __future__ import annotations
@@ -9,8 +10,13 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import torch
+from torch import Tensor
 
 from torchshm.kernels import Kernel
+from torchshm.arrays import as_float64
 from torchshm.priors import Prior
 
 #: the statistical parameters, in the order they follow the physical ones
@@ -71,3 +77,64 @@ def _prior_or_value(name: str, value: object) -> Prior | float:
     if isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value):
         return float(value)
     raise ValueError(f"priors: entry {name!r} must be a Prior or a finite number, got {value!r}")
+
+
+@dataclass(frozen=True)
+class ParameterSplit:
+    """How a parameter vector `D` splits into the model's and the discrepancy's parameters.
+
+    Attributes:
+        names: the `D` inferred parameters, in the column order of ``theta``.
+        physical_names: the `P` physical parameters in the order the model takes them (fixed
+            ones included).
+        fixed: name -> value of every fixed parameter (physical or statistical).
+        has_length: whether the discrepancy kernel has a length scale.
+    """
+
+    names: tuple[str, ...]
+    physical_names: tuple[str, ...]
+    fixed: Mapping[str, float]
+    has_length: bool
+
+    @classmethod
+    def from_priors(
+        cls, priors: Mapping[str, object], physical_names: Sequence[str], has_length: bool
+    ) -> ParameterSplit:
+        """The split of validated priors (see :func:`read_priors`): entries that are numbers
+        are fixed, the others inferred (physical first, then ``sigma_a`` and ``length``)."""
+        fixed = {n: float(v) for n, v in priors.items() if _is_number(v)}  # type: ignore[arg-type]
+        statistical = STATISTICAL[: 2 if has_length else 1]
+        names = [n for n in physical_names if n not in fixed]
+        names += [n for n in statistical if n in priors and n not in fixed]
+        return cls(tuple(names), tuple(physical_names), fixed, has_length)
+
+    def column(self, theta: object, name: str) -> Tensor:
+        """Values `B` of parameter ``name`` (inferred or fixed) for parameter vectors `B x D`.
+
+        Raises:
+            ValueError: if ``name`` is neither inferred nor fixed.
+        """
+        rows = as_float64(theta)
+        if name in self.names:
+            return rows[:, self.names.index(name)]
+        if name in self.fixed:
+            return rows.new_full((rows.shape[0],), self.fixed[name])
+        raise ValueError(f"parameter {name!r} is neither inferred nor fixed to a number")
+
+    def physical(self, theta: object) -> Tensor:
+        """Physical parameter vectors `B x P` (fixed values filled in) of rows `B x D`."""
+        rows = as_float64(theta)
+        return torch.stack([self.column(rows, n) for n in self.physical_names], dim=-1)
+
+    def split(self, theta: object) -> tuple[Tensor, Tensor, Tensor | None]:
+        """``(theta_p `B x P`, sigma_a `B` [µε], length `B` [m] or None)`` of rows `B x D`.
+
+        ``length`` is ``None`` for a kernel without length. Differentiable in ``theta``.
+        """
+        rows = as_float64(theta)
+        length = self.column(rows, "length") if self.has_length else None
+        return self.physical(rows), self.column(rows, "sigma_a"), length
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)

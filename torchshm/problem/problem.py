@@ -19,11 +19,12 @@ from torch import Tensor
 
 from torchshm.data.positions import match_positions
 from torchshm.kernels import Kernel, get_kernel
-from torchshm.kernels.base import as_float64
-from torchshm.likelihood.evaluations import CachedModel, as_numpy
+from torchshm.arrays import as_float64, as_numpy
 from torchshm.likelihood.gaussian import log_likelihood
 from torchshm.priors import Prior, paper_priors
-from torchshm.problem.parameters import STATISTICAL, read_priors
+from torchshm.problem.parameters import ParameterSplit, read_priors
+from torchshm.problem.prior import JointPrior
+from torchshm.storage.cached_model import CachedModel
 
 
 class Problem:
@@ -43,7 +44,17 @@ class Problem:
         sigma_m: standard deviation of the multiplicative model error, >= 0.
         sigma_e: measurement noise [µε], >= 0; ``None`` means ``measurements.sigma_e``.
         store: path of an evaluation store or an ``EvaluationStore``; every model evaluation
-            goes through :func:`torchshm.storage.evaluate` and is persisted there.
+            goes through :func:`torchshm.storage.evaluate` and is persisted there. ``None``
+            keeps the evaluations in this process (:mod:`torchshm.storage.cache`).
+
+    Attributes:
+        names: the `D` inferred parameters (physical first, then ``sigma_a`` [, ``length``]).
+        physical_names: the `P` physical parameters in model order (fixed ones included).
+        split: the :class:`~torchshm.problem.ParameterSplit` of a parameter vector into the
+            model's ``theta_p`` and the discrepancy's ``sigma_a``, ``length`` (fixed values
+            filled in).
+        prior: the :class:`~torchshm.problem.JointPrior` of the inferred parameters (log
+            density, draws, bounds).
 
     Raises:
         ValueError: naming the problem: unknown kernel, measured load cases or positions the
@@ -68,8 +79,11 @@ class Problem:
         self.priors, self.physical_names = read_priors(
             paper_priors() if priors is None else priors, self.kernel, getattr(model, "names", None)
         )
-        self.names = [n for n in self.physical_names if isinstance(self.priors[n], Prior)]
-        self.names += [n for n in STATISTICAL if isinstance(self.priors.get(n), Prior)]
+        self.split = ParameterSplit.from_priors(
+            self.priors, self.physical_names, self.kernel.has_length
+        )
+        self.names = list(self.split.names)
+        self.prior = JointPrior(self.priors, self.names)
         self.load_index = match_positions(measurements.loads, as_numpy(model.loads), "load case")
         self.x_index = match_positions(measurements.x, as_numpy(model.x), "position")
         self._y = torch.as_tensor(np.asarray(measurements.y, dtype=np.float64))
@@ -80,18 +94,16 @@ class Problem:
     @property
     def hard_bounds(self) -> np.ndarray:
         """`D x 2` hard bounds of the inferred parameters, in :attr:`names` order."""
-        return np.array([self.priors[n].hard_bounds for n in self.names])  # type: ignore[union-attr]
+        return self.prior.hard_bounds
 
     @property
     def plausible_bounds(self) -> np.ndarray:
         """`D x 2` plausible bounds of the inferred parameters, in :attr:`names` order."""
-        return np.array([self.priors[n].plausible_bounds for n in self.names])  # type: ignore[union-attr]
+        return self.prior.plausible_bounds
 
     def sample_prior(self, n: int, rng: np.random.Generator | int | None = None) -> np.ndarray:
-        """`n x D` independent draws from the prior."""
-        rng = np.random.default_rng(rng)
-        cols = [self.priors[name].sample(n, rng) for name in self.names]  # type: ignore[union-attr]
-        return np.column_stack(cols) if cols else np.zeros((int(n), 0))
+        """`n x D` independent draws from the prior (:attr:`prior`)."""
+        return self.prior.sample(n, rng)
 
     def log_prior(self, theta: object) -> Tensor | np.ndarray:
         """Log prior density `...` of ``theta`` (`... x D`); -inf outside the support."""
@@ -119,27 +131,17 @@ class Problem:
         return _result(torch.where(ok, value, -torch.inf), shape, is_torch)
 
     def _log_prior(self, flat: Tensor) -> Tensor:
-        total = flat.new_zeros(flat.shape[0])
-        for i, name in enumerate(self.names):
-            total = total + self.priors[name].log_prob(flat[:, i])  # type: ignore[union-attr]
-        return _nan_to_neg_inf(total)
+        return self.prior.log_prob(flat)  # type: ignore[return-value]
 
     def _log_likelihood(self, rows: Tensor) -> Tensor:
         """Log-likelihoods `B` of parameter vectors `B x D` inside the support."""
-        outputs = self.model_outputs(self._physical(rows))
+        theta_p, sigma_a, length = self.split.split(rows)
+        outputs = self.model_outputs(theta_p)
         eta = outputs[:, self.load_index][:, :, self.x_index]
         finite = torch.isfinite(eta).all(-1).all(-1)
         eta = torch.where(finite[:, None, None], eta, 0.0)
-        sigma_a, length = (self._column(rows, name) for name in STATISTICAL)
         value = log_likelihood(
-            self._y,
-            eta,
-            self._x,
-            self.kernel,
-            sigma_a,
-            length if self.kernel.has_length else None,
-            self.sigma_m,
-            self.sigma_e,
+            self._y, eta, self._x, self.kernel, sigma_a, length, self.sigma_m, self.sigma_e
         )
         return torch.where(finite, _nan_to_neg_inf(value), -torch.inf)
 
@@ -161,16 +163,6 @@ class Problem:
                 f"theta must have shape (..., {d}) for {self.names}, got {tuple(t.shape)}"
             )
         return t.reshape(-1, len(self.names)), tuple(t.shape[:-1]), is_torch
-
-    def _column(self, rows: Tensor, name: str) -> Tensor:
-        """Values `B` of parameter ``name`` (inferred or fixed) for parameter vectors `B x D`."""
-        if name in self.names:
-            return rows[:, self.names.index(name)]
-        return rows.new_full((rows.shape[0],), float(self.priors.get(name, 0.0)))  # type: ignore[arg-type]
-
-    def _physical(self, rows: Tensor) -> Tensor:
-        """Physical parameter vectors `B x P` (fixed values filled in) of rows `B x D`."""
-        return torch.stack([self._column(rows, name) for name in self.physical_names], dim=-1)
 
     # ------------------------------------------------------------------ model evaluations
     @property
@@ -196,6 +188,11 @@ class Problem:
         """``(theta_p (M, P), outputs (M, L_model, n_model))`` of every finished evaluation
         this problem has made or found in its store (failed runs excluded)."""
         return self._model.evaluations(len(self.physical_names))
+
+    def failures(self) -> tuple[np.ndarray, list[str]]:
+        """``(theta_p (F, P), errors)``: the failed model runs of this problem (or of its store)
+        and their error texts, oldest first."""
+        return self._model.failures()
 
     def __repr__(self) -> str:
         return (
