@@ -49,6 +49,7 @@ class MethodName(Enum):
 
     vbmc = "vbmc"
     emcee = "emcee"
+    emulator = "emulator"
 
 
 class Distribution(Enum):
@@ -123,6 +124,24 @@ class EmceeConfig(MethodConfig):
 
 
 @dataclass
+class EmulatorConfig(MethodConfig):
+    """Options of the FE-efficient method (adaptive field emulator, batches of model runs).
+
+    The runs of a batch go where ``executor`` says (group ``executor/``), through ``store``.
+    """
+
+    name: MethodName = MethodName.emulator
+    batch_size: int = 5  # model runs per round, evaluated concurrently
+    max_model_evaluations: Optional[int] = None  # budget of model runs; None = 15 per physical parameter
+    n_initial: Optional[int] = None  # initial design; None = a multiple of batch_size >= 2 P + 1
+    n_steps: int = 300  # emcee steps per round on the emulated posterior (no model runs)
+    final_steps: int = 1000  # emcee steps of the returned posterior
+    tv_tol: float = 0.05  # stop when successive posteriors differ by less (total variation) ...
+    patience: int = 2  # ... in this many successive rounds
+    sd_tol: float = 0.3  # ... and the emulator's log-likelihood sd is below this [nats]
+
+
+@dataclass
 class PriorConfig:
     """One prior (group ``priors/``); only the fields of ``dist`` may be set.
 
@@ -193,6 +212,7 @@ __all__ = [
     "DataConfig",
     "Distribution",
     "EmceeConfig",
+    "EmulatorConfig",
     "ExecutorConfig",
     "KernelConfig",
     "KernelName",

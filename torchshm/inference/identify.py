@@ -10,7 +10,7 @@ from torchshm.inference.posterior import Posterior
 if TYPE_CHECKING:
     from torchshm.problem import Problem
 
-METHODS = ("vbmc", "emcee")
+METHODS = ("vbmc", "emcee", "emulator")
 
 
 def identify(
@@ -21,16 +21,19 @@ def identify(
 
     Args:
         problem: a :class:`~torchshm.Problem`.
-        method: ``"vbmc"`` (PyVBMC, the paper's method) or ``"emcee"`` (the paper's benchmark:
-            affine-invariant ensemble MCMC).
+        method: ``"vbmc"`` (PyVBMC, the paper's method), ``"emcee"`` (the paper's benchmark:
+            affine-invariant ensemble MCMC) or ``"emulator"`` (an adaptive emulator of the
+            model, refined in batches of concurrent model runs).
         seed: seed of every random draw of the run.
         log_dir: TensorBoard folder written during the run (per VBMC iteration, or every
             ``log_every`` emcee steps), or None.
         **options: method options. VBMC: ``n_samples``, ``start``
             (:class:`~torchshm.inference.start.StartSettings`), ``reuse`` and any PyVBMC option
             (``max_fun_evals``, ``display``, ...). emcee: ``n_walkers`` (40), ``n_steps`` (2000),
-            ``burn``, ``thin``, ``backend_path``, ``log_every``, ``window``, ``moves``. See
-            ``docs/inference.md``.
+            ``burn``, ``thin``, ``backend_path``, ``log_every``, ``window``, ``moves``.
+            emulator (few model runs, in concurrent batches): ``batch_size`` (5),
+            ``max_model_evaluations``, ``n_jobs``, ``executor`` and the stop rule's
+            ``tv_tol``, ``patience``, ``sd_tol``. See ``docs/inference.md``.
 
     Returns:
         The :class:`Posterior`. A run that did not converge has ``converged = False`` and warns.
@@ -46,4 +49,8 @@ def identify(
         from torchshm.inference.mcmc import run_emcee
 
         return run_emcee(problem, seed, log_dir=log_dir, **options)
+    if method == "emulator":
+        from torchshm.inference.adaptive import run_emulator
+
+        return run_emulator(problem, seed, log_dir=log_dir, **options)
     raise ValueError(f"identify: unknown method {method!r}; choose one of {METHODS}")

@@ -1,0 +1,111 @@
+"""The field emulator of the adaptive method: a GP of the model's strain field over θp.
+
+Only the physical parameters θp need the forward model; every run returns the strains of all
+load cases at all positions. The emulator is the library's shared-kernel GP surrogate
+(:mod:`torchshm.surrogate`), trained on the runs made so far and restricted to the measured
+load cases and positions, so that the likelihood of any kernel, σa and l is cheap. Its latent
+variance is shared by all outputs (one kernel), which makes the posterior covariance between
+candidate points, needed by the batch rule, one small matrix product.
+
+Transforms: a model may declare ``surrogate_transform`` (keywords of
+:meth:`~torchshm.surrogate.ResponseTransform.fit`, or a fitted ``ResponseTransform``) when it
+knows its structure (e.g. strains inversely proportional to a modulus); otherwise inputs are
+scaled to the unit box and outputs standardised, which suits any model.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+from linear_operator.utils.warnings import NumericalWarning
+from torch import Tensor
+
+from torchshm.surrogate import ResponseTransform, Surrogate
+from torchshm.surrogate.surrogate import build_gp
+
+#: transform keywords for a model that declares no structure
+PLAIN_TRANSFORM: dict[str, Any] = {"log_inputs": (), "modulus": None, "relative_to_modulus": ()}
+
+
+def model_transform(model: Any) -> dict[str, Any]:
+    """Transform keywords for ``model``: its ``surrogate_transform`` if any, else plain scaling."""
+    declared = getattr(model, "surrogate_transform", None)
+    if declared is None:
+        declared = getattr(model, "transform", None)  # a Surrogate used as the model
+    if isinstance(declared, ResponseTransform):
+        return {"log_inputs": declared.log_inputs, "modulus": declared.modulus,
+                "relative_to_modulus": declared.relative_to_modulus}
+    if isinstance(declared, dict):
+        return {**PLAIN_TRANSFORM, **declared}
+    return dict(PLAIN_TRANSFORM)
+
+
+@dataclass
+class FieldEmulator:
+    """GP emulator of the measured strains `L x n` as a function of θp `P`.
+
+    Attributes:
+        surrogate: the fitted :class:`~torchshm.surrogate.Surrogate` (measured loads and
+            positions only).
+        theta_p: `N x P` distinct successful runs it was trained on [model units].
+    """
+
+    surrogate: Surrogate
+    theta_p: Tensor
+
+    @classmethod
+    def fit(cls, theta_p: np.ndarray, outputs: np.ndarray, x: Tensor, loads: Tensor,
+            transform: dict[str, Any] | None = None, kernel: str = "matern52") -> FieldEmulator:
+        """Fit to runs ``theta_p`` `N x P` with measured strains ``outputs`` `N x L x n` [µε].
+
+        Rows with a non-finite output are left out (failed runs). Raises ``ValueError`` with
+        fewer than ``P + 2`` usable runs.
+        """
+        theta = torch.as_tensor(np.asarray(theta_p), dtype=torch.float64)
+        out = torch.as_tensor(np.asarray(outputs), dtype=torch.float64)
+        keep = torch.isfinite(out.reshape(out.shape[0], -1)).all(-1)
+        theta, out = theta[keep], out[keep]
+        if theta.shape[0] < theta.shape[1] + 2:
+            raise ValueError(f"emulator: {theta.shape[0]} successful runs; at least "
+                             f"{theta.shape[1] + 2} are needed to fit the field emulator")
+        options = dict(PLAIN_TRANSFORM if transform is None else transform)
+        scaling = ResponseTransform.fit(theta, out.reshape(theta.shape[0], -1),
+                                        standardize="output", **options)
+        gp = build_gp(scaling, theta, out, kernel, 1e-10)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", NumericalWarning)  # jitter on near noise-free data
+            log_ml = gp.fit(lengthscales=(0.2, 0.5, 1.0), max_iter=200)
+        names = tuple(f"theta_p[{i}]" for i in range(theta.shape[1]))
+        sur = Surrogate(gp, scaling, x, loads, names, "adaptive-field-emulator", theta, out,
+                        {"log_marginal_likelihood": log_ml})
+        return cls(sur, theta)
+
+    def predict(self, theta_p: Tensor) -> tuple[Tensor, Tensor]:
+        """Mean [µε] and variance [µε²] of the strains, both `B x L x n`, at `B x P`."""
+        with torch.no_grad():
+            mean, var = self.surrogate.predict(theta_p)
+        assert var is not None
+        return mean, var.clamp_min(0.0)
+
+    def latent_covariance(self, a: Tensor, b: Tensor) -> Tensor:
+        """Posterior covariance `A x B` of the shared latent GP between θp sets `A x P`, `B x P`.
+
+        Divided by each point's own latent variance it gives how much a run at ``b`` reduces
+        the emulator variance at ``a`` (variance reduction does not depend on the run's
+        result, so a batch can be chosen before any of it is run).
+        """
+        gp, tr = self.surrogate.gp, self.surrogate.transform
+        with torch.no_grad():
+            ia, ib = tr.inputs(a), tr.inputs(b)
+            prior = gp.covar_module(ia, ib).to_dense()
+            factor = gp._factor if gp._factor is not None else None
+            if factor is None:
+                gp.freeze()
+                factor = gp._factor
+            sa = torch.linalg.solve_triangular(factor, gp.cross_covariance(ia).mT, upper=False)
+            sb = torch.linalg.solve_triangular(factor, gp.cross_covariance(ib).mT, upper=False)
+            return prior - sa.mT @ sb

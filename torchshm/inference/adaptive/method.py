@@ -1,0 +1,174 @@
+"""``identify(problem, method="emulator")``: few model runs, in concurrent batches.
+
+The steps, one round at a time:
+
+1. run the model at a batch of θp, concurrently and through the store (round 0: a Latin
+   hypercube of ``n_initial`` points in the plausible box; runs already in the store, e.g. of
+   another kernel or resolution, are used too);
+2. fit the field emulator of the measured strains over θp (:mod:`.field`);
+3. sample the posterior of all parameters on the emulated likelihood, which carries the
+   emulator's variance (:mod:`.likelihood`, :mod:`.sampling`; no model run);
+4. check the stop rule: the total variation between this round's posterior and the previous
+   one's is below ``tv_tol`` in ``patience`` successive rounds, and the emulator causes less
+   than ``sd_tol`` nats of log-likelihood uncertainty on average over the posterior; or the
+   budget of model runs is spent;
+5. otherwise choose the next batch where the emulator's uncertainty matters most under the
+   posterior (:mod:`.acquisition`) and go to 1.
+
+The returned :class:`~torchshm.inference.Posterior` has the last round's samples, a mixture
+density (``log_pdf``), an importance-sampling log evidence and ``diagnostics["rounds"]``.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from torchshm.inference.adaptive import sampling
+from torchshm.inference.adaptive.acquisition import choose_batch, design
+from torchshm.inference.adaptive.field import FieldEmulator, model_transform
+from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, physical_columns
+from torchshm.inference.adaptive.runs import RunSet, run_batch
+from torchshm.inference.posterior import Posterior
+from torchshm.inference.tensorboard import RunTrace, marginal_scalars
+
+
+def run_emulator(
+    problem: Any, seed: int = 0, *, log_dir: str | Path | None = None, batch_size: int = 5,
+    max_model_evaluations: int | None = None, n_jobs: int = 1, executor: Any | None = None,
+    n_initial: int | None = None, n_walkers: int | None = None, n_steps: int = 300,
+    final_steps: int = 1000, tv_tol: float = 0.05, patience: int = 2, sd_tol: float = 0.3,
+    n_evidence: int = 4000, emulator_kernel: str = "matern52",
+) -> Posterior:
+    """Identify ``problem`` with the adaptive field emulator (see :func:`torchshm.identify`).
+
+    Args:
+        problem: a :class:`~torchshm.Problem`; a store makes runs crash-safe and parallel.
+        seed: seed of the design, the chains and the evidence draws.
+        log_dir: TensorBoard folder (one row of scalars per round), or None.
+        batch_size: model runs per round after the initial design.
+        max_model_evaluations: budget of new model runs (None: ``15 P``, at least
+            ``n_initial + 2 batch_size``).
+        n_jobs: local worker processes for a batch (joblib; needs a store when != 1).
+        executor: a submitit executor (:func:`torchshm.storage.make_executor`; needs a store).
+        n_initial: size of the initial design (None: the smallest multiple of ``batch_size``
+            of at least ``2 P + 1``).
+        n_walkers: emcee walkers (None: ``max(24, 4 D)``).
+        n_steps: emcee steps per round (the second half is kept).
+        final_steps: emcee steps of the returned posterior.
+        tv_tol, patience: stop once the total variation to the previous round's posterior is
+            below ``tv_tol`` in ``patience`` successive rounds...
+        sd_tol: ...and the emulator's log-likelihood sd, averaged over the posterior, is
+            below ``sd_tol`` nats.
+        n_evidence: importance samples of the log evidence.
+        emulator_kernel: GP kernel of the field emulator, "matern52" or "rbf".
+
+    Returns:
+        The :class:`Posterior` (``method="emulator"``); ``converged`` is the stop rule's verdict
+        (False when the budget ran out first, with a warning).
+    """
+    t0 = time.perf_counter()
+    hard = np.asarray(problem.hard_bounds, dtype=np.float64)
+    plausible = np.asarray(problem.plausible_bounds, dtype=np.float64)
+    names, dim = list(problem.names), len(problem.names)
+    n_phys = len(problem.physical_names)
+    batch_size = _positive("batch_size", batch_size)
+    n_initial = _positive("n_initial", n_initial or batch_size * -(-(2 * n_phys + 1) // batch_size))
+    budget = max_model_evaluations or max(15 * n_phys, n_initial + 2 * batch_size)
+    budget = _positive("max_model_evaluations", budget)
+    n_walkers = int(n_walkers or max(24, 4 * dim))
+    transform = model_transform(problem.model)
+    rng = np.random.default_rng([seed, 29])
+    runs = RunSet.from_problem(problem)
+    n_reused = runs.theta_p.shape[0]
+    trace = RunTrace(log_dir, step_key="round")
+    rounds: list[dict[str, Any]] = []
+    batch = physical_columns(problem, design(plausible, min(n_initial, budget), seed))
+    walkers = sampling.walkers_from(problem.sample_prior(20 * n_walkers, rng), n_walkers, rng)
+    previous: EmulatedLogJoint | None = None
+    prev_samples: np.ndarray | None = None
+    calm, converged = 0, False
+    try:
+        for r in range(budget + 1):
+            t_round = time.perf_counter()
+            new = run_batch(problem, runs, batch, n_jobs, executor)
+            emulator = FieldEmulator.fit(runs.theta_p, runs.outputs, _tensor(problem, "x"),
+                                         _tensor(problem, "loads"), transform, emulator_kernel)
+            log_joint = EmulatedLogJoint(problem, emulator)
+            steps = n_steps if r > 0 else 2 * n_steps
+            samples, walkers = sampling.run_chain(log_joint, walkers, steps, seed + 1000 * r)
+            draws = samples[rng.choice(samples.shape[0], min(600, samples.shape[0]), False)]
+            tv = (sampling.total_variation(log_joint(draws), previous(draws))
+                  if previous is not None else 1.0)
+            mmtv = sampling.marginal_tv(samples, prev_samples) if prev_samples is not None else 1.0
+            share, sd = log_joint.emulator_share(draws)
+            calm = calm + 1 if tv < tv_tol else 0
+            converged = calm >= patience and float(sd.mean()) < sd_tol
+            row = {"round": float(r), "n_runs": float(len(batch)), "n_new_runs": float(new),
+                   "n_model_evaluations": float(runs.n_new), "n_emulator_runs":
+                   float(runs.theta_p.shape[0]), "tv": tv, "mmtv": mmtv,
+                   "emulator_share": float(share.mean()), "emulator_share_max": float(share.max()),
+                   "emulator_loglik_sd": float(sd.mean()),
+                   "wall_time_s": time.perf_counter() - t_round}
+            row.update(marginal_scalars(names, samples))
+            trace.log(row)
+            rounds.append({**row, "batch": np.asarray(batch).tolist()})
+            left = budget - runs.n_new
+            if converged or left <= 0:
+                break
+            utility = sd**2
+            batch, _ = choose_batch(emulator, physical_columns(problem, draws), utility,
+                                    min(batch_size, left), rng)
+            previous, prev_samples = log_joint, samples
+    finally:
+        trace.close()
+    return _posterior(problem, log_joint, walkers, rounds, runs, trace, converged, seed, {
+        "n_final_steps": final_steps, "n_walkers": n_walkers, "n_evidence": n_evidence,
+        "n_reused_runs": n_reused, "budget": budget, "t0": t0, "hard": hard,
+        "plausible": plausible,
+    })
+
+
+def _posterior(problem: Any, log_joint: EmulatedLogJoint, walkers: np.ndarray,
+               rounds: list[dict[str, Any]], runs: RunSet, trace: RunTrace, converged: bool,
+               seed: int, extra: dict[str, Any]) -> Posterior:
+    """Final chain, mixture density and evidence on the last emulator; the Posterior."""
+    samples, _ = sampling.run_chain(log_joint, walkers, extra["n_final_steps"], seed + 7)
+    vp = sampling.fit_density(samples, extra["hard"], extra["plausible"], seed)
+    log_z, log_z_sd, ess = sampling.importance_evidence(log_joint, vp, extra["n_evidence"], seed)
+    if not converged:
+        warnings.warn(
+            f"method='emulator' stopped at its budget of {extra['budget']} model runs before "
+            f"the stop rule held (last round: TV {rounds[-1]['tv']:.3f}, emulator "
+            f"log-likelihood sd {rounds[-1]['emulator_loglik_sd']:.3f} nats); the posterior "
+            "may still move: raise max_model_evaluations", RuntimeWarning, stacklevel=3)
+    diagnostics = {
+        "rounds": rounds, "n_rounds": len(rounds), "n_failed_evaluations": runs.n_failed,
+        "n_reused_runs": extra["n_reused_runs"], "n_emulator_runs": int(runs.theta_p.shape[0]),
+        "evidence_ess": ess, "n_walkers": extra["n_walkers"],
+        "wall_time_s": time.perf_counter() - extra["t0"],
+    }
+    vp.rng = np.random.default_rng([seed, 13])
+    return Posterior(
+        names=list(problem.names), method="emulator", samples=samples, log_evidence=log_z,
+        log_evidence_sd=log_z_sd, n_model_evaluations=runs.n_new, converged=converged,
+        diagnostics=diagnostics, priors=dict(getattr(problem, "priors", {}) or {}),
+        history=trace.history(), variational=vp, n_chains=extra["n_walkers"], problem=problem,
+    )
+
+
+def _tensor(problem: Any, what: str) -> Any:
+    import torch
+
+    m = problem.measurements
+    return torch.as_tensor(np.asarray(getattr(m, what), dtype=np.float64))
+
+
+def _positive(name: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"method='emulator': {name} must be a positive integer, got {value!r}")
+    return int(value)

@@ -1,0 +1,101 @@
+"""Model runs of the adaptive method: a batch of θp evaluated concurrently, through the store.
+
+With a store, a batch goes to :func:`torchshm.storage.evaluate` (joblib processes or submitit
+jobs run it concurrently; every finished run is persisted at once, so a run killed mid-batch
+loses only the runs in flight, and a rerun finds the finished ones). Without a store the batch
+is evaluated in this process through the problem (its cache keeps the outputs for the
+posterior predictive); parallel evaluation then needs a store, where workers leave results.
+A failed run is recorded (in the store) and left out of the emulator; it never stops the run.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from torchshm.storage import canonical_theta, evaluate
+
+
+@dataclass
+class RunSet:
+    """Every successful run known to the method, at the measured loads and positions.
+
+    Attributes:
+        theta_p: `N x P` physical parameters [model units].
+        outputs: `N x L x n` strains [µε] at the measured load cases and positions.
+        n_new: model runs this identification made (store hits excluded).
+        n_failed: runs of this identification that failed (left out).
+    """
+
+    theta_p: np.ndarray
+    outputs: np.ndarray
+    n_new: int = 0
+    n_failed: int = 0
+    errors: list[str] = field(default_factory=list)
+
+    @classmethod
+    def from_problem(cls, problem: Any) -> RunSet:
+        """The runs already in the problem's store (another kernel's or resolution's)."""
+        theta_p, outputs = problem.evaluations()
+        out = measured(problem, np.asarray(outputs, dtype=np.float64))
+        n_phys = len(problem.physical_names)
+        return cls(np.asarray(theta_p, dtype=np.float64).reshape(out.shape[0], n_phys), out)
+
+    def add(self, theta_p: np.ndarray, outputs: np.ndarray) -> None:
+        """Append successful runs not held yet (rows of `B x P`, `B x L x n`)."""
+        known = {tuple(np.round(r, 10)) for r in self.theta_p.tolist()}
+        for row, out in zip(theta_p, outputs):
+            key = tuple(np.round(row, 10))
+            if key not in known and np.isfinite(out).all():
+                known.add(key)
+                self.theta_p = np.vstack([self.theta_p, row[None]])
+                self.outputs = np.concatenate([self.outputs, out[None]])
+
+
+def measured(problem: Any, outputs: np.ndarray) -> np.ndarray:
+    """Model outputs `N x L_model x n_model` restricted to the measured loads and positions."""
+    return outputs[:, problem.load_index][:, :, problem.x_index]
+
+
+def run_batch(problem: Any, runs: RunSet, theta_p: np.ndarray, n_jobs: int = 1,
+              executor: Any | None = None) -> int:
+    """Evaluate `B x P` physical parameters, add the successful runs to ``runs``.
+
+    Returns:
+        The number of new model runs made (store hits excluded).
+
+    Raises:
+        ValueError: when ``n_jobs != 1`` or an executor is asked for a problem without store.
+    """
+    if theta_p.shape[0] == 0:
+        return 0
+    theta_p = canonical_theta(theta_p)  # as the store keys it: a rerun sees the same values
+    store, model = getattr(problem, "store", None), problem.model
+    if n_jobs == 1 and executor is None and all(
+            hasattr(model, a) for a in ("model", "n_jobs", "executor")):
+        model, n_jobs, executor = model.model, model.n_jobs, model.executor  # a ParallelModel
+    if store is None:
+        if (n_jobs != 1 or executor is not None) and model is problem.model:
+            raise ValueError("method='emulator': parallel runs (n_jobs or executor) need a "
+                             "problem with a store, where each worker leaves its result")
+        before = int(problem.n_model_evaluations)
+        outputs = np.asarray(problem.model_outputs(theta_p), dtype=np.float64)
+        new = int(problem.n_model_evaluations) - before
+        ok = np.isfinite(outputs.reshape(outputs.shape[0], -1)).all(-1)
+        errors = [f"θp={row.tolist()}: non-finite output" for row in theta_p[~ok]]
+    else:
+        result = evaluate(model, theta_p, store=store, n_jobs=n_jobs, executor=executor)
+        outputs, ok, new = result.outputs, result.ok, int(result.n_new)
+        errors = [f"θp={result.theta_p[i].tolist()}: {result.errors[i]}"
+                  for i in np.flatnonzero(~ok)]
+    runs.n_new += new
+    runs.n_failed += int((~ok).sum())
+    runs.errors += errors
+    if errors:
+        warnings.warn(f"method='emulator': {len(errors)} model runs failed and are left out: "
+                      + "; ".join(e.splitlines()[0] for e in errors), RuntimeWarning, stacklevel=3)
+    runs.add(theta_p[ok], measured(problem, outputs[ok]))
+    return new
