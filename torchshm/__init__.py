@@ -1,6 +1,6 @@
 """torchshm: Bayesian system identification of structures from spatially dense strain data.
 
-The public names below (see ``API.md`` in the project docs) are imported lazily, so that
+The public names below (see ``docs/api.md``: signatures and examples) are imported lazily, so that
 ``import torchshm`` stays fast and a command-line tool pays only for what it uses.
 """
 
