@@ -7,7 +7,9 @@ next to the store (:class:`PointLog`), so a later run on the same store can hand
 previous run's points to the method again without a new model evaluation.
 
 A failed model run gives a non-finite log joint inside the support (a model that raises is
-caught here when no store caught it: the point's log joint is then NaN). emcee treats such a point
+caught by the problem's cache; one that gets past it is caught here: the point's log joint is then
+NaN). When no point evaluated so far has a finite log joint and model runs failed, the run stops
+with :class:`ModelRunsFailed`, one line quoting the first model error. emcee treats such a point
 as having zero density (the proposal is rejected). PyVBMC refuses non-finite values, so for
 VBMC the point gets the lowest log joint observed so far (a pessimistic imputation), and the run
 goes on; every failure is counted and reported in the posterior's diagnostics.
@@ -111,6 +113,11 @@ def point_log_for(problem: Any) -> PointLog | None:
     return PointLog(path.with_name(path.name + ".points.jsonl"), list(problem.names), model)
 
 
+class ModelRunsFailed(RuntimeError):
+    """No evaluation so far gave a finite log joint and model runs failed: the inference cannot
+    go on. The message is one line quoting the first model error (e.g. a wrong output shape)."""
+
+
 @dataclass
 class LogJointTarget:
     """Counted, recorded evaluations of ``problem.log_joint``.
@@ -167,17 +174,32 @@ class LogJointTarget:
             bad &= inside
         self.n_failed += int(bad.sum())
         out[np.isnan(out)] = -np.inf
+        if bad.any() and not np.isfinite(np.asarray(self.y, dtype=np.float64)).any():
+            raise ModelRunsFailed(
+                f"the log joint is not finite at any point evaluated so far ({self.n_failed} "
+                f"failed model runs of {len(self.y)} points); first error: {self.error_text()}"
+            )
         if self.impute_failures and bad.any():
             finite = np.asarray(self.y, dtype=np.float64)
-            finite = finite[np.isfinite(finite)]
-            if finite.size == 0:
-                raise RuntimeError(
-                    "the log joint is not finite at any point evaluated so far (every model run "
-                    "failed or lies outside the support); first error: "
-                    f"{self.first_error or 'see the evaluation store'}"
-                )
-            out[bad] = finite.min()
+            out[bad] = finite[np.isfinite(finite)].min()
         return out
+
+    def error_text(self) -> str:
+        """First line of the first model error known (caught here or recorded by the problem's
+        cache or store), or a sentence saying that none was recorded."""
+        error = self.first_error
+        failures = getattr(self.problem, "failures", None)
+        if error is None and callable(failures):
+            try:
+                errors = failures()[1]
+            except Exception:  # noqa: BLE001 - a damaged store must not hide the run's own error
+                errors = []
+            error = errors[0] if errors else None
+        if error is None:
+            return "no model error was recorded (the log joint itself is not finite)"
+        lines = str(error).strip().splitlines()
+        line = lines[0] if lines else str(error)
+        return line if len(line) <= 300 else line[:297] + "..."
 
     def known(self) -> tuple[np.ndarray, np.ndarray]:
         """Distinct evaluated points with a finite log joint: (`M x D`, `M`), best first."""

@@ -178,7 +178,7 @@ def _posterior(
         warnings.warn(
             f"{target.n_failed} log-joint evaluations failed (model runs that did not finish); "
             f"they were given the lowest log joint seen; first error: "
-            f"{target.first_error or 'see the evaluation store'}",
+            f"{target.error_text()}",
             RuntimeWarning, stacklevel=3,
         )
     draw_vp = copy.deepcopy(vp)
