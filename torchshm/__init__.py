@@ -28,7 +28,7 @@ _EXPORTS: dict[str, str] = {
     "paper_priors": "torchshm.priors",
     "fit_surrogate": "torchshm.surrogate",
     "load_surrogate": "torchshm.surrogate",
-    "bridge705_surrogate": "torchshm.surrogate",
+    "bridge705_surrogate": "torchshm.physics.surrogate",
     "ExternalModel": "torchshm.forward",
     "EvaluationStore": "torchshm.storage",
     "EvaluationResult": "torchshm.storage",

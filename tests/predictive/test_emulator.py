@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from torchshm.predictive.emulator import BRIDGE, PLAIN, clean_design, fit_emulator, transform_options
+from torchshm.physics import Bridge705
+from torchshm.predictive.emulator import PLAIN, clean_design, fit_emulator, transform_options
 
 X = np.linspace(0.0, 10.0, 30)
 LOADS = np.array([1.0, 2.0])
@@ -21,7 +22,7 @@ def response(theta: np.ndarray) -> np.ndarray:
 def test_accurate_inside_the_design() -> None:
     rng = np.random.default_rng(0)
     design = np.column_stack([rng.uniform(20, 50, 60), rng.uniform(4, 12, 60)])
-    emulator = fit_emulator(design, response(design), X, LOADS, transform=BRIDGE)
+    emulator = fit_emulator(design, response(design), X, LOADS, transform=Bridge705.surrogate_transform)
     test = np.column_stack([rng.uniform(25, 45, 200), rng.uniform(5, 11, 200)])
     mean, var = emulator.predict(test)
     assert mean.shape == (200, 2, 30) and var.shape == (200, 2, 30)
@@ -50,5 +51,12 @@ def test_drops_failed_and_repeated_rows() -> None:
 
 
 def test_transform_choice() -> None:
-    assert transform_options(object(), ["E_c", "log10_K_r"]) == BRIDGE
-    assert transform_options(object(), ["a", "b"]) == PLAIN
+    """The model's own transform when it declares one (the bridge does), plain otherwise."""
+
+    class Declared:
+        surrogate_transform = {"log_inputs": (1,), "modulus": None, "relative_to_modulus": ()}
+
+    assert transform_options(Declared()) == Declared.surrogate_transform
+    assert transform_options(object()) == PLAIN
+    assert transform_options(Bridge705.__new__(Bridge705)) == {
+        "log_inputs": (0,), "modulus": 0, "relative_to_modulus": (1,)}

@@ -14,6 +14,7 @@ class StandInFrame:
     """
 
     names = ("E_c", "log10_K_r")
+    surrogate_transform = {"log_inputs": (0,), "modulus": 0, "relative_to_modulus": (1,)}
     identity = "stand-in-frame/1"
 
     def __init__(self, n: int = 25, loads: tuple[float, ...] = (10.0, 20.0, 30.0)) -> None:

@@ -5,7 +5,12 @@ from __future__ import annotations
 import pytest
 import torch
 
+from torchshm.physics import Bridge705
 from torchshm.surrogate import ResponseTransform
+from torchshm.surrogate.transforms import PLAIN
+
+#: the elastic structure of a frame (modulus in column 0, log10 spring stiffness in column 1)
+ELASTIC = Bridge705.surrogate_transform
 
 
 def _design() -> tuple[torch.Tensor, torch.Tensor]:
@@ -18,7 +23,7 @@ def _design() -> tuple[torch.Tensor, torch.Tensor]:
 
 def test_elastic_inputs_are_log_modulus_and_log_stiffness_ratio_in_the_unit_box() -> None:
     theta, outputs = _design()
-    transform = ResponseTransform.fit(theta, outputs)
+    transform = ResponseTransform.fit(theta, outputs, **ELASTIC)
     raw = transform.raw_inputs(theta)
     torch.testing.assert_close(raw[:, 0], torch.log10(theta[:, 0]))
     torch.testing.assert_close(raw[:, 1], theta[:, 1] - torch.log10(theta[:, 0]))
@@ -28,7 +33,7 @@ def test_elastic_inputs_are_log_modulus_and_log_stiffness_ratio_in_the_unit_box(
 
 
 @pytest.mark.parametrize("options", [
-    {}, {"standardize": "global"}, {"log_inputs": (), "modulus": None, "relative_to_modulus": ()},
+    ELASTIC, {**ELASTIC, "standardize": "global"}, {}, PLAIN,
 ])
 def test_targets_are_standardised_and_invert_to_strains(options) -> None:
     theta, outputs = _design()
@@ -42,14 +47,14 @@ def test_targets_are_standardised_and_invert_to_strains(options) -> None:
 
 def test_variance_scales_with_the_square_of_the_compliance() -> None:
     theta, outputs = _design()
-    transform = ResponseTransform.fit(theta, outputs)
+    transform = ResponseTransform.fit(theta, outputs, **ELASTIC)
     var = transform.strain_variance(theta, torch.ones(15, 1, dtype=torch.float64))
     torch.testing.assert_close(var, (transform.scale / theta[:, :1]) ** 2)
 
 
 def test_state_round_trip() -> None:
     theta, outputs = _design()
-    transform = ResponseTransform.fit(theta, outputs)
+    transform = ResponseTransform.fit(theta, outputs, **ELASTIC)
     again = ResponseTransform.from_state(transform.state())
     torch.testing.assert_close(again.inputs(theta), transform.inputs(theta))
     torch.testing.assert_close(again.targets(theta, outputs), transform.targets(theta, outputs))
@@ -64,11 +69,19 @@ def test_state_round_trip() -> None:
 def test_bad_options_are_refused(options, message) -> None:
     theta, outputs = _design()
     with pytest.raises(ValueError, match=message):
-        ResponseTransform.fit(theta, outputs, **options)
+        ResponseTransform.fit(theta, outputs, **{**ELASTIC, **options})
+
+
+def test_default_is_plain_scaling() -> None:
+    theta, outputs = _design()
+    transform = ResponseTransform.fit(theta, outputs)
+    assert transform.options() == PLAIN
+    torch.testing.assert_close(transform.raw_inputs(theta), theta)
+    torch.testing.assert_close(transform.factor(theta), torch.ones(15, 1, dtype=torch.float64))
 
 
 def test_non_positive_modulus_is_refused() -> None:
     theta, outputs = _design()
-    transform = ResponseTransform.fit(theta, outputs)
+    transform = ResponseTransform.fit(theta, outputs, **ELASTIC)
     with pytest.raises(ValueError, match="positive"):
         transform.inputs(torch.tensor([[-1.0, 3.0]], dtype=torch.float64))

@@ -92,11 +92,19 @@ class Bridge705:
         x: `n` sensor positions [m] (351 points, 35.0 .. 70.0 m).
         loads: `L` front-axle positions [m] of truck T1 (12 load cases).
         names: names of the physical parameters, in input order.
+        surrogate_transform: keywords of
+            :meth:`torchshm.surrogate.ResponseTransform.fit` that suit this model: every
+            stiffness scales with E_c except the pier-base springs, so strains are
+            ``g(K_r / E_c) / E_c`` and a surrogate's GP sees log10 E_c, log10 K_r - log10 E_c
+            and predicts E_c times the strain (see :mod:`torchshm.surrogate.transforms`).
         identity: stable key of the configuration and formulation.
         config: the configuration.
     """
 
     names: tuple[str, ...] = ("E_c", "log10_K_r")
+    surrogate_transform: dict[str, object] = {
+        "log_inputs": (0,), "modulus": 0, "relative_to_modulus": (1,)
+    }
 
     def __init__(self, config: Bridge705Config | None = None) -> None:
         self.config = config or Bridge705Config()

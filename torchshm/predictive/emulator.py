@@ -8,8 +8,7 @@ cases and positions. Nothing here calls a forward model: the emulator sees array
 
 Input and output transforms (see :mod:`torchshm.surrogate.transforms`) are chosen by
 :func:`transform_options`: the surrogate's own when the problem's model is a surrogate, the
-bridge-705 structure (``log10 E_c``, ``log10 K_r - log10 E_c``, strains times ``E_c``) when the
-physical parameters are ``E_c`` and ``log10_K_r``, plain scaling otherwise.
+model's ``surrogate_transform`` attribute when it declares one, plain scaling otherwise.
 """
 
 from __future__ import annotations
@@ -22,24 +21,15 @@ import torch
 from linear_operator.utils.warnings import NumericalWarning
 from torch import Tensor
 
+from torchshm.forward.protocol import ForwardModel
 from torchshm.surrogate import ResponseTransform, Surrogate
 from torchshm.surrogate.surrogate import build_gp
-
-#: physical parameter names for which the bridge-705 transform applies
-BRIDGE_NAMES = ("E_c", "log10_K_r")
-#: transform keywords of :meth:`ResponseTransform.fit` for a model without known structure
-PLAIN = {"log_inputs": (), "modulus": None, "relative_to_modulus": ()}
-#: the bridge-705 transform (the defaults of :func:`torchshm.fit_surrogate`)
-BRIDGE = {"log_inputs": (0,), "modulus": 0, "relative_to_modulus": (1,)}
+from torchshm.surrogate.transforms import PLAIN, transform_of
 
 
-def transform_options(model: Any, physical_names: Sequence[str]) -> dict[str, Any]:
+def transform_options(model: ForwardModel) -> dict[str, Any]:
     """Transform keywords suited to a forward model (see the module docstring)."""
-    transform = getattr(model, "transform", None)
-    if isinstance(transform, ResponseTransform):
-        return {"log_inputs": transform.log_inputs, "modulus": transform.modulus,
-                "relative_to_modulus": transform.relative_to_modulus}
-    return dict(BRIDGE if tuple(physical_names) == BRIDGE_NAMES else PLAIN)
+    return transform_of(model)
 
 
 def clean_design(theta_p: object, outputs: object) -> tuple[Tensor, Tensor]:

@@ -157,7 +157,7 @@ def stored_emulator(
     loads_idx = load_index(problem.model, loads)
     pos_idx, x = position_index(problem, positions)
     theta_train, outputs = _training_data(problem, loads_idx, pos_idx, seed)
-    options = {"transform": transform_options(problem.model, problem.physical_names),
+    options = {"transform": transform_options(problem.model),
                "names": list(problem.physical_names), **(emulator_options or {})}
     return fit_emulator(theta_train, outputs, x, _loads_tensor(problem.model, loads_idx), **options)
 

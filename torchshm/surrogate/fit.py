@@ -5,28 +5,32 @@ from __future__ import annotations
 import time
 import warnings
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Literal, Sequence
 
 import gpytorch
 import numpy as np
 import torch
 
-from torchshm.forward.protocol import as_tensor, model_identity
+from torchshm.arrays import as_float64
+from torchshm.forward.protocol import ForwardModel, model_identity
 from torchshm.storage import EvaluationStore, evaluate
 from torchshm.surrogate.surrogate import Surrogate, build_gp
-from torchshm.surrogate.transforms import ResponseTransform
+from torchshm.surrogate.transforms import ResponseTransform, transform_of
+
+#: a transform keyword left to the model (its ``surrogate_transform``, else plain scaling)
+FromModel = Literal["model"]
 
 
 def fit_surrogate(
-    model: Any,
+    model: ForwardModel,
     theta_p: object,
     store: EvaluationStore | str | Path | None = None,
     n_jobs: int = 1,
     *,
     kernel: str = "rbf",
-    log_inputs: tuple[int, ...] = (0,),
-    modulus: int | None = 0,
-    relative_to_modulus: tuple[int, ...] = (1,),
+    log_inputs: tuple[int, ...] | FromModel = "model",
+    modulus: int | None | FromModel = "model",
+    relative_to_modulus: tuple[int, ...] | FromModel = "model",
     standardize: str = "output",
     names: Sequence[str] | None = None,
     min_noise: float = 1e-10,
@@ -40,20 +44,21 @@ def fit_surrogate(
     left out with a warning naming them. All `L x n` outputs share one kernel, fitted by the
     exact marginal likelihood (see :mod:`torchshm.surrogate.gp`).
 
-    The transform defaults suit bridge 705, θp = (E_c [GPa], log10_K_r): the GP sees
-    log10 E_c and log10(K_r / E_c) and predicts E_c · ε. For a model without that
-    structure pass ``log_inputs=(), modulus=None, relative_to_modulus=()``.
+    The transform keywords left at ``"model"`` come from the model's ``surrogate_transform``
+    attribute (bridge 705 declares its elastic structure there), or are plain scaling
+    (``log_inputs=(), modulus=None, relative_to_modulus=()``) for a model without one.
 
     Args:
         model: forward model, ``model(theta_p) -> ... x L x n`` with ``x`` and ``loads``.
-        theta_p: `N x P` design [model units], e.g. :func:`paper_design`.
+        theta_p: `N x P` design [model units], e.g. a :func:`grid_design`.
         store: an evaluation store or its path; None keeps nothing.
         n_jobs: local worker processes for the model runs (-1: every core).
         kernel: "rbf" or "matern52" (ARD, with an output scale).
-        log_inputs: columns of θp the GP sees as log10.
-        modulus: column of θp that is an elastic modulus (strains ∝ 1 / modulus), or None.
+        log_inputs: columns of θp the GP sees as log10, or ``"model"``.
+        modulus: column of θp that is an elastic modulus (strains ∝ 1 / modulus), None, or
+            ``"model"``.
         relative_to_modulus: columns holding log10 of a stiffness that does not scale with
-            the modulus; the GP sees them minus log10 of the modulus.
+            the modulus (the GP sees them minus log10 of the modulus), or ``"model"``.
         standardize: "output" (a scale per output) or "global" (one scale).
         names: parameter names; default ``model.names`` or ``theta_p[i]``.
         min_noise: lower bound of the GP noise variance (standardised units).
@@ -69,9 +74,11 @@ def fit_surrogate(
     """
     start = time.perf_counter()
     theta, outputs = _evaluate_design(model, theta_p, store, n_jobs)
+    given = {"log_inputs": log_inputs, "modulus": modulus,
+             "relative_to_modulus": relative_to_modulus}
+    options = {**transform_of(model), **{k: v for k, v in given.items() if v != "model"}}
     transform = ResponseTransform.fit(
-        theta, outputs.reshape(outputs.shape[0], -1), log_inputs=log_inputs, modulus=modulus,
-        relative_to_modulus=relative_to_modulus, standardize=standardize)
+        theta, outputs.reshape(outputs.shape[0], -1), standardize=standardize, **options)
     gp = build_gp(transform, theta, outputs, kernel, min_noise)
     log_ml = gp.fit(lengthscales=lengthscales, max_iter=max_iter)
     metadata = {
@@ -83,11 +90,11 @@ def fit_surrogate(
         "gpytorch": str(gpytorch.__version__),
     }
     default = getattr(model, "names", None) or [f"theta_p[{i}]" for i in range(theta.shape[1])]
-    return Surrogate(gp, transform, as_tensor(model.x), as_tensor(model.loads),
+    return Surrogate(gp, transform, as_float64(model.x), as_float64(model.loads),
                      tuple(names or default), model_identity(model), theta, outputs, metadata)
 
 
-def _evaluate_design(model: Any, theta_p: object, store: EvaluationStore | str | Path | None,
+def _evaluate_design(model: ForwardModel, theta_p: object, store: EvaluationStore | str | Path | None,
                      n_jobs: int) -> tuple[torch.Tensor, torch.Tensor]:
     """Successful, distinct design rows `N x P` and their strains `N x L x n` [µε]."""
     result = evaluate(model, theta_p, store=store, n_jobs=n_jobs)

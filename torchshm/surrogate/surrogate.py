@@ -38,6 +38,9 @@ class Surrogate:
         theta_p: `N x P` design the GP was trained on (successful runs only).
         outputs: `N x L x n` model strains [µε] at the design.
         metadata: plain values describing the fit (marginal likelihood, settings, versions).
+        surrogate_transform: the transform keywords it was fitted with (those of the model
+            it replaces), so that a surrogate of a surrogate, or an emulator of its outputs,
+            uses the same structure.
     """
 
     def __init__(self, gp: SharedKernelGP, transform: ResponseTransform, x: Tensor,
@@ -50,6 +53,11 @@ class Surrogate:
         self.metadata = dict(metadata or {})
         self._scaled_weights = gp.weights * transform.scale
         self.identity = f"surrogate-{self._digest()}"
+
+    @property
+    def surrogate_transform(self) -> dict[str, Any]:
+        """Keywords of :meth:`ResponseTransform.fit` this surrogate was fitted with."""
+        return self.transform.options()
 
     def __repr__(self) -> str:
         return (f"Surrogate(of={self.model_identity!r}, N={self.theta_p.shape[0]}, "

@@ -2,7 +2,8 @@
 
 A linear elastic model whose stiffnesses all scale with one modulus E, except for springs of
 stiffness K, gives strains ``ε(E, K) = g(K / E) / E`` exactly: the stiffness matrix is
-``E (K_0 + (K / E) S)``. The default transform uses that structure for bridge 705:
+``E (K_0 + (K / E) S)``. A model with that structure names its columns in its
+``surrogate_transform`` attribute (keywords of :meth:`ResponseTransform.fit`), and then:
 
 - GP inputs are ``log10 E`` and ``log10 K - log10 E`` (the log of the stiffness ratio), each
   scaled to the unit interval over the design, so that the response of a column of the design
@@ -10,8 +11,8 @@ stiffness K, gives strains ``ε(E, K) = g(K / E) / E`` exactly: the stiffness ma
 - GP targets are ``E · ε`` (the strain at unit modulus), centred and divided by a scale for each
   output (or one scale for all), so that every output has a comparable size under one kernel.
 
-With ``modulus=None`` and ``log_inputs=()`` the transform is plain min-max input scaling and
-output standardisation, suitable for any forward model.
+The default (:data:`PLAIN`: ``modulus=None``, ``log_inputs=()``) is plain min-max input scaling
+and output standardisation, suitable for any forward model.
 """
 
 from __future__ import annotations
@@ -24,6 +25,16 @@ from torch import Tensor
 
 #: names of the output scalings
 STANDARDIZE = ("output", "global")
+#: transform keywords of :meth:`ResponseTransform.fit` for a model without known structure
+PLAIN: dict[str, Any] = {"log_inputs": (), "modulus": None, "relative_to_modulus": ()}
+
+
+def transform_of(model: object) -> dict[str, Any]:
+    """Transform keywords suited to a forward model: its ``surrogate_transform`` attribute
+    (bridge 705 and every fitted :class:`~torchshm.surrogate.Surrogate` have one), else
+    :data:`PLAIN`."""
+    own = getattr(model, "surrogate_transform", None)
+    return dict(PLAIN if own is None else own)
 
 
 @dataclass
@@ -52,8 +63,8 @@ class ResponseTransform:
 
     @classmethod
     def fit(
-        cls, theta_p: Tensor, outputs: Tensor, *, log_inputs: tuple[int, ...] = (0,),
-        modulus: int | None = 0, relative_to_modulus: tuple[int, ...] = (1,),
+        cls, theta_p: Tensor, outputs: Tensor, *, log_inputs: tuple[int, ...] = (),
+        modulus: int | None = None, relative_to_modulus: tuple[int, ...] = (),
         standardize: str = "output",
     ) -> ResponseTransform:
         """Fit the scalings to a design.
@@ -126,6 +137,11 @@ class ResponseTransform:
     def strain_variance(self, theta_p: Tensor, variance: Tensor) -> Tensor:
         """Strain variance [µε²] `... x m` from the shared GP variance `... x 1`."""
         return variance * (self.scale * self.factor(theta_p)) ** 2
+
+    def options(self) -> dict[str, Any]:
+        """The structural keywords of :meth:`fit` this transform was fitted with."""
+        return {"log_inputs": self.log_inputs, "modulus": self.modulus,
+                "relative_to_modulus": self.relative_to_modulus}
 
     def state(self) -> dict[str, Any]:
         """Plain, ``weights_only``-loadable content for saving."""

@@ -1,20 +1,18 @@
-"""Accuracy of a surrogate against the forward model it replaces, at held-out parameters."""
+"""Accuracy of a surrogate against the forward model it replaces, at held-out parameters.
+
+The parameter box is the caller's (e.g. from the priors' plausible or hard bounds, or bridge
+705's :data:`torchshm.physics.surrogate.PRIOR_BOX`).
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
-
 import torch
 from torch import Tensor
 
-from torchshm.forward.protocol import as_tensor
-
-#: the prior box of bridge 705 (paper, Table 2): E_c [GPa], log10 K_r [log10 N·mm/rad]
-PRIOR_BOX: tuple[tuple[float, float], ...] = ((10.0, 100.0), (0.0, 12.0))
-#: the posterior region of the paper's case study, where the strictest accuracy is asked
-POSTERIOR_BOX: tuple[tuple[float, float], ...] = ((25.0, 45.0), (10.5, 12.0))
-
+from torchshm.arrays import as_float64
+from torchshm.forward.protocol import ForwardModel
+from torchshm.surrogate.surrogate import Surrogate
 
 def uniform_in_box(n: int, box: tuple[tuple[float, float], ...], seed: int) -> Tensor:
     """`n x P` parameters drawn uniformly in ``box`` (one (low, high) per parameter)."""
@@ -54,11 +52,11 @@ class SurrogateErrors:
                 f"{self.max_sd_ratio:.2g}")
 
 
-def surrogate_errors(surrogate: Any, model: Any, theta_p: Tensor) -> SurrogateErrors:
+def surrogate_errors(surrogate: Surrogate, model: ForwardModel, theta_p: Tensor) -> SurrogateErrors:
     """Compare ``surrogate`` with ``model`` at `R x P` held-out parameters."""
-    theta = as_tensor(theta_p)
+    theta = as_float64(theta_p)
     with torch.no_grad():
-        truth, (mean, var) = as_tensor(model(theta)), surrogate.predict(theta)
+        truth, (mean, var) = as_float64(model(theta)), surrogate.predict(theta)
     error = (mean - truth).abs()
     run_peak = truth.abs().amax(dim=(-2, -1))
     sd = var.sqrt()
