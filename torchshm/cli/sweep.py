@@ -4,7 +4,8 @@ Each job of a sweep writes ``run.json`` into its own folder. At the end of the m
 Hydra callback :class:`SweepComparison` (listed in ``conf/config.yaml`` under
 ``hydra.callbacks``) reads them all and writes into the sweep folder:
 
-- ``comparison.csv`` / ``comparison.md``: one row per job: method, ELBO ± sd, log10 Bayes
+- ``comparison.csv`` / ``comparison.md``: one row per job (named by the overrides that set it
+  apart from the other jobs, e.g. ``kernel=matern52``): method, ELBO ± sd, log10 Bayes
   factor of the best job over this one with Jeffreys' label (paper, Tables 1 and 9), mean
   hold-out coverage of the 95 % predictive interval, forward-model runs, convergence, time;
 - ``bayes_factors.csv``: every pair of jobs with an ELBO (:func:`torchshm.bayes_factors`).
@@ -27,14 +28,35 @@ from omegaconf import DictConfig
 log = logging.getLogger(__name__)
 
 #: columns of comparison.csv
-COLUMNS = ("job", "method", "elbo", "elbo_sd", "log10_B_best_over_job", "jeffreys",
+COLUMNS = ("job", "folder", "method", "elbo", "elbo_sd", "log10_B_best_over_job", "jeffreys",
            "holdout_coverage", "model_runs", "converged", "wall_time_s", "status")
 
 
-def job_row(folder: Path) -> dict[str, Any]:
+def job_overrides(folder: Path) -> list[str]:
+    """The command-line overrides of a job (``.hydra/overrides.yaml``; empty if unreadable)."""
+    import yaml
+
+    try:
+        items = yaml.safe_load((folder / ".hydra" / "overrides.yaml").read_text())
+    except (OSError, yaml.YAMLError):
+        return []
+    return [str(i) for i in items] if isinstance(items, list) else []
+
+
+def job_names(folders: list[Path]) -> list[str]:
+    """Name of each job: its overrides that not every job shares (e.g. ``kernel=matern52``),
+    else its folder name."""
+    overrides = [job_overrides(f) for f in folders]
+    shared = set.intersection(*(set(o) for o in overrides)) if overrides else set()
+    names = [",".join(o for o in items if o not in shared) for items in overrides]
+    return [n or f.name for n, f in zip(names, folders)]
+
+
+def job_row(folder: Path, name: str | None = None) -> dict[str, Any]:
     """One row of the table from ``folder/run.json`` (status ``failed`` without it)."""
     row: dict[str, Any] = dict.fromkeys(COLUMNS, "")
-    row["job"] = folder.name
+    row["job"] = name or folder.name
+    row["folder"] = folder.name
     path = folder / "run.json"
     try:
         record = json.loads(path.read_text())
@@ -66,7 +88,7 @@ def compare_runs(sweep_dir: Path) -> dict[str, Path]:
     folders = sorted(p for p in Path(sweep_dir).iterdir() if p.is_dir() and (p / ".hydra").is_dir())
     if not folders:
         raise ValueError(f"sweep {sweep_dir}: no job folder")
-    rows = [job_row(f) for f in folders]
+    rows = [job_row(f, n) for f, n in zip(folders, job_names(folders))]
     with_elbo = {r["job"]: (float(r["elbo"]), _float(r["elbo_sd"])) for r in rows
                  if isinstance(r["elbo"], (int, float)) and math.isfinite(r["elbo"])}
     files = {}
@@ -127,4 +149,4 @@ class SweepComparison(Callback):
         print(files["markdown"].read_text(), flush=True)
 
 
-__all__ = ["COLUMNS", "SweepComparison", "compare_runs", "job_row"]
+__all__ = ["COLUMNS", "SweepComparison", "compare_runs", "job_names", "job_overrides", "job_row"]
