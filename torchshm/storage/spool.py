@@ -31,10 +31,14 @@ def deposit(folder: Path, record: Record) -> Path:
     temporary, final = folder / f".tmp-{name}", folder / name
     meta = dict(record.metadata(), checksum=record.checksum)
     outputs = np.empty((0, 0)) if record.outputs is None else record.outputs
-    with open(temporary, "wb") as handle:
-        np.savez(handle, outputs=outputs, meta=np.array(json.dumps(meta)))
-        handle.flush()
-        os.fsync(handle.fileno())
+    try:
+        with open(temporary, "wb") as handle:
+            np.savez(handle, outputs=outputs, meta=np.array(json.dumps(meta)))
+            handle.flush()
+            os.fsync(handle.fileno())
+    except OSError:  # disk full or read-only: leave no partial file behind
+        temporary.unlink(missing_ok=True)
+        raise
     os.replace(temporary, final)
     _fsync_folder(folder)
     return final

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 import sqlite3
 import time
 from collections.abc import Iterator, Sequence
@@ -128,6 +129,9 @@ class EvaluationStore:
                 break
             except sqlite3.OperationalError as exc:  # another process is creating the file
                 if "locked" not in str(exc) or attempt == 19:
+                    if not os.access(self.path.parent, os.W_OK):
+                        exc = "its folder is read-only (SQLite writes its journal beside the " \
+                              "file); copy the store to a writable folder"  # type: ignore[assignment]
                     raise ValueError(f"cannot open evaluation store {self.path}: {exc}") from None
                 time.sleep(0.05 * (attempt + 1))
             except sqlite3.DatabaseError as exc:
@@ -163,11 +167,23 @@ class EvaluationStore:
 
         A finished run is never lost to a locked or unwritable store file: a spool file is
         moved into the store by the next :meth:`ingest`.
+
+        Raises:
+            OSError: when neither the file nor the spool can be written (disk full, read-only
+                folder); one line naming the store. Every run stored before is kept.
         """
         try:
             self.put(record)
         except sqlite3.Error as exc:
-            path = self.deposit(record)
+            try:
+                path = self.deposit(record)
+            except OSError as err:
+                raise OSError(
+                    err.errno,
+                    f"evaluation store {self.path}: cannot keep the run just finished ({exc}; "
+                    f"spool: {err.strerror}); every run stored before is kept: free space or "
+                    f"make the folder writable, then run again",
+                ) from None
             logger.warning("%s: cannot write (%s); result kept in %s", self, exc, path)
 
     def lookup(self, model: object, keys: Sequence[str]) -> dict[str, Record]:
