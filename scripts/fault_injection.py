@@ -65,18 +65,24 @@ def _start(job: str, store: Path, log: Path, result: Path, delay: float) -> tupl
 
 
 def references(jobs: list[str], folder: Path, delay: float) -> tuple[dict[str, dict], float]:
-    """Run every job uninterrupted on its own store (all at once); results and longest time."""
+    """Run every job uninterrupted on its own store (all at once); results and longest time.
+
+    Jobs whose result is already in ``folder`` (from an earlier call) are not run again.
+    """
     folder.mkdir(parents=True, exist_ok=True)
+    times = folder / "seconds.json"
+    seconds = json.loads(times.read_text()) if times.exists() else {}
     t0, running = time.monotonic(), {}
     for job in jobs:
-        running[job] = _start(job, folder / f"{job}.sqlite", folder / f"{job}.calls",
-                              folder / f"{job}.json", delay)[0]
-    longest = 0.0
+        if job not in seconds or not (folder / f"{job}.json").exists():
+            running[job] = _start(job, folder / f"{job}.sqlite", folder / f"{job}.calls",
+                                  folder / f"{job}.json", delay)[0]
     for job, process in running.items():
         if process.wait() != 0:
             raise RuntimeError(f"reference job {job} failed; see {folder / job}.json.stderr")
-        longest = max(longest, time.monotonic() - t0)
-    return {job: _result(folder / f"{job}.json") for job in jobs}, longest
+        seconds[job] = time.monotonic() - t0
+    times.write_text(json.dumps(seconds))
+    return {job: _result(folder / f"{job}.json") for job in jobs}, max(seconds[j] for j in jobs)
 
 
 def _result(path: Path) -> dict:
@@ -189,6 +195,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--timeout", type=float, default=3600.0, help="limit of the faulted run [s]")
     parser.add_argument("--json", type=Path, default=None, help="write the report here too")
     parser.add_argument("--small", action="store_true", help="CI-sized jobs (short chain, 3x3 design)")
+    parser.add_argument("--reference", type=Path, default=None,
+                        help="folder of uninterrupted runs to reuse (default: <folder>/reference)")
     args = parser.parse_args(argv)
     global SIZE
     SIZE = "small" if args.small else ""
@@ -205,7 +213,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         t0 = time.monotonic()
         spread = ["vbmc1"] if "vbmc" in jobs and "vbmc1" not in jobs else []
-        ref, longest = references(jobs + spread, folder / "reference", args.delay)
+        ref, longest = references(jobs + spread, args.reference or folder / "reference",
+                                  args.delay)
         horizon = 2.0 * longest / max(1, args.kills)
         out = faulted(jobs, folder / "faulted", args.kills, horizon, args.delay,
                       np.random.default_rng(args.seed), args.timeout)

@@ -115,6 +115,10 @@ def exact_posterior() -> tuple[np.ndarray, np.ndarray]:
 def run(job: str, store: str, log: str, result: str, ready: str | None = None,
         delay: float = 0.02) -> None:
     """Run one job to the end and write its result (JSON) atomically to ``result``."""
+    import torchshm.inference.mcmc  # noqa: F401  (imports done before the job counts as ready)
+    import torchshm.inference.variational  # noqa: F401
+    import torchshm.surrogate  # noqa: F401
+
     model = CountingModel(log, store, delay)
     if ready:
         Path(ready).touch()
