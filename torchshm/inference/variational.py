@@ -18,7 +18,7 @@ import numpy as np
 from pyvbmc import VBMC
 
 from torchshm.inference.posterior import Posterior
-from torchshm.inference.start import StartSettings, find_start, vbmc_start
+from torchshm.inference.start import StartSettings, find_start, vbmc_budget, vbmc_start
 from torchshm.inference.target import LogJointTarget, point_log_for
 from torchshm.inference.tensorboard import RunTrace, marginal_scalars
 
@@ -26,29 +26,52 @@ from torchshm.inference.tensorboard import RunTrace, marginal_scalars
 TRACE_SAMPLES = 20_000
 
 
-class TracedVBMC(VBMC):
-    """PyVBMC's ``VBMC`` with a callback after each iteration.
+class IterationTrace:
+    """Logs every finished VBMC iteration, read from PyVBMC's public ``iteration_history``.
 
-    PyVBMC has no per-iteration callback (its ``output_fcn`` option is never called). The one
-    method that runs exactly once per iteration, after the iteration's ELBO, sKL and variational
-    posterior are recorded in ``iteration_history``, is ``_check_termination_conditions``; this
-    subclass calls ``on_iteration(self)`` right after it. Nothing else changes.
+    PyVBMC 1.5 has no per-iteration callback (its ``output_fcn`` option is never called), so the
+    trace is read from ``vbmc.iteration_history``, where each iteration's ELBO, sKL, function
+    count and variational posterior are recorded at its end. :meth:`poll` logs the iterations
+    recorded since the last poll; it runs before every log-joint evaluation (:meth:`wrap`), so
+    iteration `k` is written as soon as iteration `k + 1` asks for a point, and once more
+    after the run (:meth:`poll` from :func:`run_vbmc`) for the last iteration. No PyVBMC
+    method is overridden.
+
+    Args:
+        trace: where rows go (TensorBoard and the posterior's history).
+        names: the inferred parameter names.
+        n_precomputed: evaluations handed to PyVBMC before its first iteration.
+        seed: seed of the run (the trace's draws use their own streams derived from it).
     """
 
-    def __init__(self, *args: Any, on_iteration: Callable[[VBMC], None], **kwargs: Any) -> None:
-        self._on_iteration = on_iteration
-        super().__init__(*args, **kwargs)
+    def __init__(self, trace: RunTrace, names: list[str], n_precomputed: int, seed: int) -> None:
+        self.trace, self.names, self.n_precomputed, self.seed = trace, names, n_precomputed, seed
+        self.vbmc: VBMC | None = None
+        self.n_logged = 0
 
-    def _check_termination_conditions(self):  # type: ignore[no-untyped-def]
-        result = super()._check_termination_conditions()
-        self._on_iteration(self)
-        return result
+    def wrap(self, target: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarray], np.ndarray]:
+        """``target`` with a :meth:`poll` before each call."""
+
+        def traced(theta: np.ndarray) -> np.ndarray:
+            self.poll()
+            return target(theta)
+
+        return traced
+
+    def poll(self) -> None:
+        """Log the iterations recorded in ``iteration_history`` and not logged yet."""
+        hist = None if self.vbmc is None else self.vbmc.iteration_history
+        elbo = None if hist is None else hist["elbo"]
+        while elbo is not None and self.n_logged < len(elbo) and elbo[self.n_logged] is not None:
+            self.trace.log(_iteration_row(hist, self.n_logged, self.names, self.n_precomputed,
+                                          self.seed))
+            self.n_logged += 1
 
 
-def _iteration_row(vbmc: VBMC, names: list[str], n_precomputed: int, seed: int) -> dict[str, float]:
-    """Trace row of the iteration ``vbmc`` just finished (ELBO, sKL, marginal intervals)."""
-    it = int(vbmc.iteration)
-    hist = vbmc.iteration_history
+def _iteration_row(
+    hist: Any, it: int, names: list[str], n_precomputed: int, seed: int
+) -> dict[str, float]:
+    """Trace row of iteration ``it`` of an ``iteration_history`` (ELBO, sKL, marginal intervals)."""
     vp = copy.deepcopy(hist["vp"][it])
     vp.rng = np.random.default_rng([seed, 7, it])  # never draw from the run's own stream
     draws, _ = vp.sample(TRACE_SAMPLES)
@@ -109,10 +132,11 @@ def run_vbmc(
     names = list(problem.names)
     hard = np.asarray(problem.hard_bounds, dtype=np.float64)
     plausible = np.asarray(problem.plausible_bounds, dtype=np.float64)
+    budget = vbmc_budget(len(names), options)
+    options = {k: v for k, v in options.items() if not (k == "max_fun_evals" and v is None)}
     calls_before = int(problem.n_model_evaluations)
     target = LogJointTarget(problem, point_log_for(problem), impute_failures=True, hard_bounds=hard)
     n_reused = _reuse_previous_points(target) if reuse else 0
-    budget = int(options.get("max_fun_evals", 50 * (2 + len(names))))
     settings = (start or StartSettings()).resolved(len(names), budget)
     calls_before_search = int(problem.n_model_evaluations)
     first = find_start(target, plausible, hard, settings, seed)
@@ -122,15 +146,17 @@ def run_vbmc(
 
     trace = RunTrace(log_dir, step_key="iteration")
     n_pre = 0 if precomputed is None else int(precomputed[0].shape[0])
-    vbmc = TracedVBMC(
-        target, x0, hard[:, 0], hard[:, 1], plausible[:, 0], plausible[:, 1],
+    iterations = IterationTrace(trace, names, n_pre, seed)
+    vbmc = VBMC(
+        iterations.wrap(target), x0, hard[:, 0], hard[:, 1], plausible[:, 0], plausible[:, 1],
         options=_pyvbmc_options(options, 0 if x0 is None else x0.shape[0], n_initial, len(names)),
         seed=seed,
         precomputed_evaluations=precomputed, initialization_cost=n_search,
-        on_iteration=lambda v: trace.log(_iteration_row(v, names, n_pre, seed)),
     )
+    iterations.vbmc = vbmc
     try:
         vp, results = vbmc.optimize()
+        iterations.poll()
     finally:
         trace.close()
     return _posterior(problem, vp, results, trace, target, calls_before, n_samples, seed, {
