@@ -1,13 +1,15 @@
 """Where to run the model next: a batch of θp where the emulator's uncertainty matters most.
 
-The candidates are the physical parts of posterior draws. A candidate's utility is the
-posterior-weighted variance of the log-likelihood that the emulator error causes there,
-``u(θp) = mean over its draws of Σ_j v_j(θp) / s_j²`` (see
-:meth:`EmulatedLogJoint.emulator_share`). The batch is chosen greedily: take the best
-candidate, then lower every candidate's utility as if that run were already made (the shared
-GP's variance after a run at θ* is ``v(θ) - c(θ, θ*)² / v(θ*)``, whatever its result: a
-kriging believer that is exact for the variance), and repeat. A run close to one already
-chosen thus loses its utility, which spreads the batch.
+The candidates are the physical parts of posterior draws, so a sum over them is a
+posterior-weighted integral. Each carries the variance of the log-likelihood that the emulator
+error causes there, ``u_i ≈ Σ_j v_j / s_j²`` (see :meth:`EmulatedLogJoint.emulator_share`).
+A run at candidate b would remove the share ``ρ_ib²`` of it at every candidate i (ρ the
+posterior correlation of the shared latent GP), so the expected integrated variance reduction
+of a run at b is ``Σ_i u_i ρ_ib²``. The batch is chosen greedily: take the best candidate,
+condition the GP's covariance on a run there (the variance after a run does not depend on its
+result, so this "kriging believer" step is exact), scale every ``u_i`` by its variance
+reduction, and repeat. Runs near one already chosen thus lose their value, which spreads the
+batch.
 """
 
 from __future__ import annotations
@@ -40,15 +42,17 @@ def choose_batch(emulator: FieldEmulator, theta_p: np.ndarray, utility: np.ndarr
     if theta_p.shape[0] > MAX_CANDIDATES:
         keep = rng.choice(theta_p.shape[0], MAX_CANDIDATES, replace=False)
         theta_p, utility = theta_p[keep], utility[keep]
-    cand = torch.as_tensor(theta_p)
-    cov = emulator.latent_covariance(cand, cand).numpy()
-    var = np.clip(np.diag(cov).copy(), 1e-300, None)
-    ratio = np.asarray(utility, dtype=np.float64) / var  # utility per unit latent variance
-    current = var.copy()
+    cov = emulator.latent_covariance(*(torch.as_tensor(theta_p),) * 2).numpy()
+    util = np.asarray(utility, dtype=np.float64).copy()
     chosen: list[int] = []
     gains: list[float] = []
     for _ in range(int(batch_size)):
-        score = ratio * current
+        var = np.clip(np.diag(cov), 0.0, None)
+        usable = var > 1e-9 * max(float(var.max()), 1e-300)
+        scale = np.sqrt(np.where(usable, var, np.inf))
+        corr2 = np.square(cov / scale[:, None] / scale[None, :])
+        score = util @ corr2  # utility removed by a run at each candidate
+        score[~usable] = -np.inf
         score[chosen] = -np.inf
         best = int(np.argmax(score))
         if not np.isfinite(score[best]) or score[best] <= 0:
@@ -57,7 +61,8 @@ def choose_batch(emulator: FieldEmulator, theta_p: np.ndarray, utility: np.ndarr
         gains.append(float(score[best]))
         c = cov[:, best].copy()
         cov = cov - np.outer(c, c) / max(c[best], 1e-300)
-        current = np.clip(np.diag(cov), 0.0, None)
+        new_var = np.clip(np.diag(cov), 0.0, None)
+        util = util * np.where(usable, new_var / np.where(usable, var, 1.0), 0.0)
     return theta_p[chosen], np.array(gains)
 
 

@@ -15,8 +15,9 @@ The steps, one round at a time:
 5. otherwise choose the next batch where the emulator's uncertainty matters most under the
    posterior (:mod:`.acquisition`) and go to 1.
 
-The returned :class:`~torchshm.inference.Posterior` has the last round's samples, a mixture
-density (``log_pdf``), an importance-sampling log evidence and ``diagnostics["rounds"]``.
+The returned :class:`~torchshm.inference.Posterior` has a mixture density fitted to a chain on
+the last emulator (``log_pdf``), draws and a log evidence by importance sampling from it
+(:mod:`.sampling`), and ``diagnostics["rounds"]``.
 """
 
 from __future__ import annotations
@@ -41,8 +42,8 @@ def run_emulator(
     problem: Any, seed: int = 0, *, log_dir: str | Path | None = None, batch_size: int = 5,
     max_model_evaluations: int | None = None, n_jobs: int = 1, executor: Any | None = None,
     n_initial: int | None = None, n_walkers: int | None = None, n_steps: int = 300,
-    final_steps: int = 1000, tv_tol: float = 0.05, patience: int = 2, sd_tol: float = 0.3,
-    n_evidence: int = 4000, emulator_kernel: str = "matern52",
+    final_steps: int = 400, tv_tol: float = 0.05, patience: int = 2, sd_tol: float = 0.3,
+    n_evidence: int = 8000, emulator_kernel: str = "matern52",
 ) -> Posterior:
     """Identify ``problem`` with the adaptive field emulator (see :func:`torchshm.identify`).
 
@@ -59,12 +60,12 @@ def run_emulator(
             of at least ``2 P + 1``).
         n_walkers: emcee walkers (None: ``max(24, 4 D)``).
         n_steps: emcee steps per round (the second half is kept).
-        final_steps: emcee steps of the returned posterior.
+        final_steps: emcee steps on the last emulator, to fit the posterior's mixture density.
         tv_tol, patience: stop once the total variation to the previous round's posterior is
             below ``tv_tol`` in ``patience`` successive rounds...
         sd_tol: ...and the emulator's log-likelihood sd, averaged over the posterior, is
             below ``sd_tol`` nats.
-        n_evidence: importance samples of the log evidence.
+        n_evidence: importance samples of the log evidence and the returned posterior draws.
         emulator_kernel: GP kernel of the field emulator, "matern52" or "rbf".
 
     Returns:
@@ -137,9 +138,9 @@ def _posterior(problem: Any, log_joint: EmulatedLogJoint, walkers: np.ndarray,
                rounds: list[dict[str, Any]], runs: RunSet, trace: RunTrace, converged: bool,
                seed: int, extra: dict[str, Any]) -> Posterior:
     """Final chain, mixture density and evidence on the last emulator; the Posterior."""
-    samples, _ = sampling.run_chain(log_joint, walkers, extra["n_final_steps"], seed + 7)
-    vp = sampling.fit_density(samples, extra["hard"], extra["plausible"], seed)
-    log_z, log_z_sd, ess = sampling.importance_evidence(log_joint, vp, extra["n_evidence"], seed)
+    chain, _ = sampling.run_chain(log_joint, walkers, extra["n_final_steps"], seed + 7)
+    vp = sampling.fit_density(chain, extra["hard"], extra["plausible"], seed)
+    log_z, log_z_sd, ess, samples = sampling.importance(log_joint, vp, extra["n_evidence"], seed)
     if not converged:
         warnings.warn(
             f"method='emulator' stopped at its budget of {extra['budget']} model runs before "

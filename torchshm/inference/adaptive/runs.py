@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from torchshm.forward.protocol import output_shape
 from torchshm.storage import canonical_theta, evaluate
 
 
@@ -81,11 +82,8 @@ def run_batch(problem: Any, runs: RunSet, theta_p: np.ndarray, n_jobs: int = 1,
         if (n_jobs != 1 or executor is not None) and model is problem.model:
             raise ValueError("method='emulator': parallel runs (n_jobs or executor) need a "
                              "problem with a store, where each worker leaves its result")
-        before = int(problem.n_model_evaluations)
-        outputs = np.asarray(problem.model_outputs(theta_p), dtype=np.float64)
-        new = int(problem.n_model_evaluations) - before
+        outputs, new, errors = _through_problem(problem, theta_p)
         ok = np.isfinite(outputs.reshape(outputs.shape[0], -1)).all(-1)
-        errors = [f"θp={row.tolist()}: non-finite output" for row in theta_p[~ok]]
     else:
         result = evaluate(model, theta_p, store=store, n_jobs=n_jobs, executor=executor)
         outputs, ok, new = result.outputs, result.ok, int(result.n_new)
@@ -99,3 +97,21 @@ def run_batch(problem: Any, runs: RunSet, theta_p: np.ndarray, n_jobs: int = 1,
                       + "; ".join(e.splitlines()[0] for e in errors), RuntimeWarning, stacklevel=3)
     runs.add(theta_p[ok], measured(problem, outputs[ok]))
     return new
+
+
+def _through_problem(problem: Any, theta_p: np.ndarray) -> tuple[np.ndarray, int, list[str]]:
+    """Outputs `B x L_model x n_model` of rows evaluated one by one through the problem (whose
+    cache keeps them); a run that raises or returns non-finite strains gives NaN."""
+    before = int(problem.n_model_evaluations)
+    rows, errors = [], []
+    for row in theta_p:
+        try:
+            out = np.asarray(problem.model_outputs(row[None]), dtype=np.float64)[0]
+        except Exception as exc:  # a failed run is recorded and left out, never fatal
+            errors.append(f"θp={row.tolist()}: {type(exc).__name__}: {exc}")
+            out = np.full(output_shape(problem.model), np.nan)
+        else:
+            if not np.isfinite(out).all():
+                errors.append(f"θp={row.tolist()}: non-finite output")
+        rows.append(out)
+    return np.stack(rows), int(problem.n_model_evaluations) - before, errors

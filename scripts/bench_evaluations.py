@@ -1,0 +1,218 @@
+"""Model runs needed by method="emulator" against VBMC and a long emcee reference.
+
+Parts (``--part``, results cached as JSON under ``runs/bench_evaluations/``, the table written
+into ``docs/benchmarks.md`` between its ``bench_evaluations`` markers):
+
+- ``bridge``: study A's case on the FE model ``bridge705()`` itself, Matérn 3/2, load 39.8 m:
+  the emulator method, PyVBMC and a long emcee chain (the reference) on the same problem.
+- ``four``: a four-parameter beam (``scripts/beam4.py``), emulator against emcee on the model.
+- ``studyb``: the five kernels of study B identified by the emulator from one shared store.
+
+Wall time with a 10-minute model and 5 workers is computed from the round structure: a batch of
+b runs takes ceil(b / 5) model times; VBMC's starting design is one batch and every later point
+is evaluated after the previous one (PyVBMC acquires sequentially).
+
+Usage: ``python scripts/bench_evaluations.py --part bridge four studyb [--write]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import re
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import torchshm  # noqa: E402
+
+OUT = Path("runs/bench_evaluations")
+MODEL_MIN, WORKERS = 10.0, 5
+
+
+def _summary(post: torchshm.Posterior) -> dict[str, list[float]]:
+    s = post.summary()
+    return {"mean": [r.mean for r in s.rows], "sd": [r.sd for r in s.rows],
+            "names": [r.name for r in s.rows]}
+
+
+def _emulator_row(post: torchshm.Posterior, wall: float) -> dict[str, object]:
+    rounds = post.diagnostics["rounds"]
+    hours = sum(math.ceil(r["n_new_runs"] / WORKERS) for r in rounds) * MODEL_MIN / 60
+    return {"runs": post.n_model_evaluations, "rounds": len(rounds), "converged": post.converged,
+            "sim_hours": hours, "wall_s": wall, "log_evidence": post.log_evidence,
+            "log_evidence_sd": post.log_evidence_sd, **_summary(post),
+            "per_round": [{k: r[k] for k in ("n_new_runs", "tv", "mmtv", "emulator_share",
+                                                "emulator_loglik_sd")} for r in rounds]}
+
+
+def _reference(problem: object, name: str, n_steps: int) -> dict[str, object]:
+    path = OUT / f"reference_{name}.json"
+    if path.exists():
+        return json.loads(path.read_text())
+    t = time.perf_counter()
+    post = torchshm.identify(problem, method="emcee", seed=1, n_walkers=32, n_steps=n_steps)
+    row = {**_summary(post), "steps": n_steps, "n_over_tau": post.diagnostics["n_over_tau"],
+           "wall_s": time.perf_counter() - t}
+    path.write_text(json.dumps(row, indent=1))
+    return row
+
+
+def _compare(emu: dict, ref: dict) -> dict[str, float]:
+    m, s = np.array(emu["mean"]), np.array(emu["sd"])
+    rm, rs = np.array(ref["mean"]), np.array(ref["sd"])
+    return {"max_mean_dev_sd": float(np.max(np.abs(m - rm) / rs)),
+            "max_sd_rel": float(np.max(np.abs(s / rs - 1)))}
+
+
+def part_bridge() -> dict[str, object]:
+    data = torchshm.synthetic_campaign(seed=0).select([39.8])
+    store = OUT / "bridge_store.sqlite"
+    problem = torchshm.Problem(torchshm.bridge705(), data, kernel="matern32", store=store)
+    t = time.perf_counter()
+    post = torchshm.identify(problem, method="emulator", seed=0, batch_size=5,
+                             max_model_evaluations=30, n_walkers=16, n_steps=200)
+    emu = _emulator_row(post, time.perf_counter() - t)
+    emu["exact_is"] = _exact_importance(post, data)
+    ref = part_reference()
+    vbmc_path = OUT / "vbmc_bridge.json"
+    if vbmc_path.exists():
+        vb = json.loads(vbmc_path.read_text())
+    else:
+        t = time.perf_counter()
+        vpost = torchshm.identify(torchshm.Problem(torchshm.bridge705(), data,
+                                                   kernel="matern32"), method="vbmc", seed=0)
+        n = vpost.n_model_evaluations
+        n_design = 10  # the starting Latin hypercube, one batch; everything after is sequential
+        vb = {"runs": n, "rounds": math.ceil(n_design / WORKERS) + n - n_design,
+              "converged": vpost.converged, "wall_s": time.perf_counter() - t,
+              "log_evidence": vpost.log_evidence, "log_evidence_sd": vpost.log_evidence_sd,
+              **_summary(vpost)}
+        vb["sim_hours"] = vb["rounds"] * MODEL_MIN / 60
+        vbmc_path.write_text(json.dumps(vb, indent=1))
+    return {"emulator": emu, "reference": ref, "vbmc": vb,
+            "emulator_vs_ref": _compare(emu, ref), "vbmc_vs_ref": _compare(vb, ref)}
+
+
+def _exact_importance(post: torchshm.Posterior, data: object) -> dict[str, object]:
+    """Posterior moments and evidence by importance sampling with the FE model's own likelihood
+    from the emulator's (widened) posterior density: a second, independent reference."""
+    from torchshm.inference.adaptive.sampling import importance
+
+    exact = torchshm.Problem(torchshm.bridge705(), data, kernel="matern32")
+    log_z, sd, ess, draws = importance(lambda t: np.asarray(exact.log_joint(t)),
+                                       post.variational, 8000, 5)
+    return {"log_evidence": log_z, "log_evidence_sd": sd, "ess": ess,
+            "mean": draws.mean(0).tolist(), "sd": draws.std(0, ddof=1).tolist()}
+
+
+def part_reference() -> dict[str, object]:
+    """The long emcee chain on the FE model (cached: run it alone, beside the other parts)."""
+    data = torchshm.synthetic_campaign(seed=0).select([39.8])
+    return _reference(torchshm.Problem(torchshm.bridge705(), data, kernel="matern32"), "bridge",
+                      2000)
+
+
+def part_four() -> dict[str, object]:
+    from beam4 import beam4_problem
+
+    store = OUT / "four_store.sqlite"
+    t = time.perf_counter()
+    post = torchshm.identify(beam4_problem(store=store), method="emulator", seed=0,
+                             batch_size=5, max_model_evaluations=60, n_steps=200)
+    emu = _emulator_row(post, time.perf_counter() - t)
+    ref = _reference(beam4_problem(), "four", 4000)
+    return {"emulator": emu, "reference": ref, "emulator_vs_ref": _compare(emu, ref)}
+
+
+def part_studyb() -> dict[str, object]:
+    data = torchshm.synthetic_campaign(seed=0).select([39.8])
+    store = OUT / "bridge_store.sqlite"  # shared with part bridge: its runs are reused
+    out: dict[str, object] = {}
+    for kernel in torchshm.KERNELS:
+        problem = torchshm.Problem(torchshm.bridge705(), data, kernel=kernel, store=store)
+        t = time.perf_counter()
+        post = torchshm.identify(problem, method="emulator", seed=0, batch_size=5,
+                                 max_model_evaluations=10, n_walkers=16, n_steps=200)
+        out[kernel] = _emulator_row(post, time.perf_counter() - t)
+    out["store_runs"] = len(torchshm.Problem(torchshm.bridge705(), data,
+                                             store=store).evaluations()[0])
+    return out
+
+
+def write_table(results: dict[str, dict]) -> str:
+    """Markdown of the cached results."""
+    lines = [f"Measured {time.strftime('%Y-%m-%d')} on this machine (`uptime` load "
+             f"{os.getloadavg()[0]:.2f}); simulated wall time: {MODEL_MIN:.0f}-minute model, "
+             f"{WORKERS} workers.", ""]
+    b = results.get("bridge")
+    if b:
+        lines += ["| study A, FE model, matern32, 39.8 m | model runs | sequential rounds | "
+                  "simulated wall time | max mean dev. / ref. sd | max sd rel. dev. | "
+                  "log evidence |", "|---|---|---|---|---|---|---|"]
+        for key in ("emulator", "vbmc"):
+            r, c = b[key], b[f"{key}_vs_ref"]
+            lines.append(f"| {key} | {r['runs']} | {r['rounds']} | {r['sim_hours']:.1f} h | "
+                         f"{c['max_mean_dev_sd']:.3f} | {c['max_sd_rel']:.3f} | "
+                         f"{r['log_evidence']:.3f} ± {r['log_evidence_sd']:.3f} |")
+        ref = b["reference"]
+        lines += ["", f"Reference: emcee on the FE model, 32 walkers x {ref['steps']} steps "
+                  f"(chain {ref['n_over_tau']:.0f} autocorrelation times). Means "
+                  + ", ".join(f"{n} {m:.4g} ± {s:.3g}" for n, m, s in
+                              zip(ref["names"], ref["mean"], ref["sd"])) + ".", ""]
+    f = results.get("four")
+    if f:
+        c = f["emulator_vs_ref"]
+        lines += [f"Four physical parameters (`scripts/beam4.py`): {f['emulator']['runs']} runs "
+                  f"in {f['emulator']['rounds']} rounds; max mean deviation "
+                  f"{c['max_mean_dev_sd']:.3f} reference sd, max sd deviation "
+                  f"{100 * c['max_sd_rel']:.1f} % (reference: emcee on the model).", ""]
+    s = results.get("studyb")
+    if s:
+        lines += ["| study B kernel (emulator, shared store) | new runs | log evidence |",
+                  "|---|---|---|"]
+        for k in torchshm.KERNELS:
+            r = s[k]
+            lines.append(f"| {k} | {r['runs']} | {r['log_evidence']:.3f} ± "
+                         f"{r['log_evidence_sd']:.3f} |")
+        lines += ["", f"Runs in the shared store after all five kernels: {s['store_runs']}.", ""]
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--part", nargs="+", default=["bridge", "four", "studyb"])
+    parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md")
+    args = parser.parse_args()
+    OUT.mkdir(parents=True, exist_ok=True)
+    warnings.simplefilter("default")
+    parts = {"reference": part_reference, "bridge": part_bridge, "four": part_four,
+             "studyb": part_studyb}
+    for name in args.part:
+        result = parts[name]()
+        (OUT / f"{name}.json").write_text(json.dumps(result, indent=1, default=float))
+        print(name, json.dumps(result, indent=1, default=float), flush=True)
+    results = {n: json.loads((OUT / f"{n}.json").read_text())
+               for n in parts if (OUT / f"{n}.json").exists()}
+    table = write_table(results)
+    print(table)
+    if args.write:
+        doc = Path("docs/benchmarks.md")
+        text = doc.read_text()
+        block = f"<!-- bench_evaluations:start -->\n{table}\n<!-- bench_evaluations:end -->"
+        pattern = re.compile(r"<!-- bench_evaluations:start -->.*<!-- bench_evaluations:end -->",
+                             re.S)
+        text = pattern.sub(lambda _: block, text) if pattern.search(text) else text + (
+            "\n## Model runs: method=\"emulator\" against VBMC (`scripts/bench_evaluations.py`)"
+            f"\n\n{block}\n")
+        doc.write_text(text)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,135 @@
+"""method="emulator" (torchshm.inference.adaptive) against analytic answers, small budgets.
+
+The linear-Gaussian problem of ``inference_models`` has a Gaussian posterior and a closed-form
+evidence and KL divergence; the emulator must reproduce them with a handful of model runs.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+import torch
+from inference_models import LinearModel, linear_gaussian_answer, linear_gaussian_problem
+from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+import torchshm
+from torchshm.inference import Posterior
+from torchshm.inference.adaptive.acquisition import choose_batch
+from torchshm.inference.adaptive.field import FieldEmulator
+from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, noise_levels
+from torchshm.inference.adaptive.sampling import total_variation
+
+SMALL = {"n_walkers": 16, "n_steps": 150, "final_steps": 500, "n_evidence": 2000}
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Posterior, str, object]:
+    log_dir = str(tmp_path_factory.mktemp("tb_emulator"))
+    problem = linear_gaussian_problem()
+    post = torchshm.identify(problem, "emulator", seed=0, log_dir=log_dir, **SMALL)
+    return post, log_dir, problem
+
+
+def test_posterior_and_evidence_match_the_analytic_answer(run: tuple) -> None:
+    post, _, problem = run
+    mean, cov, log_z = linear_gaussian_answer(problem)
+    sd = np.sqrt(np.diag(cov))
+    summary = post.summary()
+    for i, name in enumerate(post.names):
+        assert abs(summary[name].mean - mean[i]) < 0.15 * sd[i]
+        assert abs(summary[name].sd / sd[i] - 1) < 0.15
+    assert abs(post.log_evidence - log_z) < 0.3  # acceptance point 2
+    assert 0 < post.log_evidence_sd < 0.1
+    assert post.converged and post.method == "emulator"
+    assert post.n_model_evaluations <= 15
+    rounds = post.diagnostics["rounds"]
+    assert sum(int(r["n_new_runs"]) for r in rounds) == post.n_model_evaluations
+    assert all(len(r["batch"]) <= 5 for r in rounds)
+
+
+def test_density_kl_and_predictive_make_no_model_run(run: tuple) -> None:
+    post, _, problem = run
+    mean, cov, _ = linear_gaussian_answer(problem)
+    before = problem.n_model_evaluations
+    s0 = np.diag([problem.priors[n].sd ** 2 for n in post.names])
+    m0 = np.array([problem.priors[n].mean for n in post.names])
+    d = m0 - mean
+    exact_kl = 0.5 * (np.trace(np.linalg.solve(s0, cov)) + d @ np.linalg.solve(s0, d) - 2
+                      + np.log(np.linalg.det(s0) / np.linalg.det(cov)))
+    kl = torchshm.kl_divergence(post, n=4000)
+    assert abs(kl - exact_kl) < 0.1
+    pred = torchshm.posterior_predictive(post, [20.0], n=200)
+    assert pred.mean.shape == (1, 60)
+    assert problem.n_model_evaluations == before
+
+
+def test_tensorboard_has_one_row_per_round(run: tuple) -> None:
+    post, log_dir, _ = run
+    acc = EventAccumulator(log_dir)
+    acc.Reload()
+    tags = acc.Tags()["scalars"]
+    for tag in ("tv", "mmtv", "emulator_share", "n_model_evaluations", "p0/mean", "p0/q97.5"):
+        assert tag in tags
+    assert len(acc.Scalars("tv")) == post.diagnostics["n_rounds"]
+
+
+def test_failed_runs_are_left_out_and_counted() -> None:
+    class Failing(LinearModel):
+        identity = "failing-linear"
+
+        def __call__(self, theta_p: torch.Tensor) -> torch.Tensor:
+            theta_p = torch.as_tensor(theta_p, dtype=torch.float64)
+            if bool((theta_p[..., 0] > 0.6).any()):
+                raise RuntimeError("solver diverged")
+            return super().__call__(theta_p)
+
+    problem = linear_gaussian_problem(truth=(0.3, -0.2), model=Failing())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        post = torchshm.identify(problem, "emulator", seed=1, max_model_evaluations=12, **SMALL)
+    assert post.diagnostics["n_failed_evaluations"] >= 1
+    assert np.isfinite(post.summary()["p0"].mean)
+
+
+def test_batch_rule_spreads_the_points() -> None:
+    x = torch.linspace(0, 1, 20, dtype=torch.float64)
+    theta = np.array([[0.0], [0.5], [1.0], [0.25]])
+    outputs = np.sin(3 * theta[:, :, None] * x.numpy()[None, None, :])
+    emulator = FieldEmulator.fit(theta, outputs, x, torch.tensor([1.0]))
+    cand = np.linspace(0, 1, 401)[:, None]
+    variance = np.diag(emulator.latent_covariance(*(torch.as_tensor(cand),) * 2).numpy())
+    batch, gains = choose_batch(emulator, cand, variance, 3, np.random.default_rng(0))
+    assert batch.shape == (3, 1) and np.all(gains > 0)
+    dist = np.abs(batch[:, None, 0] - np.vstack([batch, theta])[None, :, 0])
+    np.fill_diagonal(dist[:, :3], np.inf)
+    assert dist.min() > 0.05  # no two runs on top of each other or of the design
+
+
+def test_noise_levels_never_below_the_exact_inflation() -> None:
+    extra = np.array([0.0, 1e-6, 0.003, 0.5, 10.0])
+    levels = noise_levels(0.1, extra)
+    exact = np.sqrt(0.01 + extra)
+    assert np.all(levels >= exact - 1e-15) and np.all(levels <= 1.0101 * exact)
+    assert levels[0] == pytest.approx(0.1)
+
+
+def test_emulated_log_joint_is_exact_where_the_emulator_is_exact() -> None:
+    problem = linear_gaussian_problem()
+    theta = np.array([[1.0, -1.0], [-1.0, 1.0], [1.0, 1.0], [-1.0, -1.0], [0.0, 0.0]])
+    emulator = FieldEmulator.fit(theta, np.asarray(problem.model_outputs(theta)),
+                                 torch.as_tensor(problem.measurements.x),
+                                 torch.as_tensor(problem.measurements.loads))
+    log_joint = EmulatedLogJoint(problem, emulator)
+    at = np.array([[1.3, -0.7], [0.2, 0.4]])
+    np.testing.assert_allclose(log_joint(at), problem.log_joint(at), atol=0.05)
+    assert total_variation(log_joint(at), log_joint(at)) == 0.0
+
+
+def test_bad_options_are_named() -> None:
+    problem = linear_gaussian_problem()
+    with pytest.raises(ValueError, match="batch_size"):
+        torchshm.identify(problem, "emulator", batch_size=0)
+    with pytest.raises(ValueError, match="store"):
+        torchshm.identify(problem, "emulator", n_jobs=2)
