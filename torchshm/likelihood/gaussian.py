@@ -18,13 +18,14 @@ from torch import Tensor
 
 from torchshm.kernels import Kernel, get_kernel
 from torchshm.kernels.base import as_float64
-from torchshm.likelihood.cholesky import cholesky_with_jitter
+from torchshm.likelihood.marginal import Eq21, choose_method
 
 #: largest covariance buffer [bytes] factorised at once (at least one parameter vector per
 #: chunk): bigger batches are split, which bounds memory and avoids the page faults and cache
 #: misses of very large temporary buffers
 CHUNK_BYTES = 2**22
-LOG_2PI = math.log(2.0 * math.pi)
+#: largest batch of residuals [bytes] handled at once by the state-space form
+STATE_SPACE_CHUNK_BYTES = 2**24
 
 
 def log_likelihood(
@@ -36,6 +37,7 @@ def log_likelihood(
     length: object | None = None,
     sigma_m: float = 0.05,
     sigma_e: float = 0.1,
+    method: str = "auto",
 ) -> Tensor:
     """Log-likelihood of Eq. (21) for a batch of model predictions and kernel parameters.
 
@@ -45,6 +47,13 @@ def log_likelihood(
     :mod:`torchshm.likelihood.cholesky` for the jitter policy (a well-conditioned covariance is
     never perturbed). When ``sigma_m == 0`` the covariance is common to all load cases and is
     factorised once per parameter vector. The ``independent`` kernel needs no factorisation.
+
+    The distribution is :class:`torchshm.likelihood.marginal.Eq21`, the same one the predictive
+    draws sample from. For the Markov kernels (``exponential``, ``matern32``, ``matern52``) from
+    :data:`~torchshm.likelihood.marginal.STATE_SPACE_FROM` points per load case, the exact
+    density is computed from the kernel's state-space form in O(n) time and memory instead
+    (any sorted or unsorted positions, repeats allowed; ``docs/likelihood.md``). Both forms are
+    differentiable by autograd, on CPU and CUDA tensors.
 
     Args:
         y: `L x n` measured strains [µε].
@@ -56,6 +65,7 @@ def log_likelihood(
             be ``None``) for a kernel without length such as ``independent``.
         sigma_m: standard deviation of the multiplicative model error (dimensionless), >= 0.
         sigma_e: standard deviation of the measurement noise [µε], >= 0.
+        method: ``"auto"`` (default), ``"dense"`` or ``"state_space"``.
 
     Returns:
         `...` log-likelihoods (float64 tensor; the batch shape is the broadcast of `eta`'s,
@@ -63,8 +73,9 @@ def log_likelihood(
         largest jitter; NaN where an input is not finite or sigma_a or length is negative.
 
     Raises:
-        ValueError: for an unknown kernel, mismatched shapes, or a negative or non-finite
-            ``sigma_m`` or ``sigma_e``.
+        ValueError: for an unknown kernel, mismatched shapes, a negative or non-finite
+            ``sigma_m`` or ``sigma_e``, or a non-Markov kernel at a size whose dense covariance
+            would not fit in memory.
     """
     kern = get_kernel(kernel)
     eta = as_float64(eta)
@@ -86,49 +97,19 @@ def log_likelihood(
     n_batch = math.prod(batch)
     eta_f = eta.expand(*batch, *y.shape).reshape(n_batch, *y.shape)
     sa_f, ell_f = sa.expand(batch).reshape(n_batch), ell.expand(batch).reshape(n_batch)
+    form = choose_method(kern, y.shape[1], method, noise_positive=sigma_e > 0)
     matrices = 1 if sigma_m == 0.0 else y.shape[0]  # covariances per parameter vector
-    step = max(1, CHUNK_BYTES // (matrices * y.shape[1] ** 2 * 8))
+    per_vector = matrices * y.shape[1] ** 2 * 8 if form == "dense" else y.numel() * 8
+    step = max(1, (CHUNK_BYTES if form == "dense" else STATE_SPACE_CHUNK_BYTES) // per_vector)
     parts = []
     for i in range(0, n_batch, step):
         c = slice(i, i + step)
-        parts.append(_block_log_density(y, eta_f[c], x, kern, sa_f[c], ell_f[c], sigma_m, sigma_e))
+        gaussian = Eq21(eta_f[c], x, kern, sa_f[c], ell_f[c], sigma_m, sigma_e, form)
+        parts.append(gaussian.log_prob(y))
     out = parts[0] if len(parts) == 1 else torch.cat(parts) if parts else eta_f.new_zeros(0)
     finite = torch.isfinite(eta_f).all(-1).all(-1) & torch.isfinite(sa_f) & torch.isfinite(ell_f)
     bad = ~finite | (sa_f < 0) | (ell_f < 0)
     return torch.where(bad, torch.nan, out).reshape(batch)
-
-
-def _block_log_density(
-    y: Tensor,
-    eta: Tensor,
-    x: Tensor,
-    kern: Kernel,
-    sigma_a: Tensor,
-    length: Tensor,
-    sigma_m: float,
-    sigma_e: float,
-) -> Tensor:
-    """Log-likelihoods `B` of flat batches: ``eta`` `B x L x n`, ``sigma_a`` and ``length`` `B`."""
-    n_loads, n = y.shape
-    resid = y - eta
-    noise = sigma_e**2 + sigma_m**2 * eta.square()  # B x L x n
-    if kern.is_diagonal:
-        var = kern.diag(x, sigma_a=sigma_a)[:, None, :] + noise
-        singular = (var <= 0).any(-1).any(-1)
-        var = torch.where(var > 0, var, 1.0)
-        terms = resid.square() / var + var.log() + LOG_2PI
-        return torch.where(singular, -torch.inf, -0.5 * terms.sum((-1, -2)))
-    if sigma_m == 0.0:
-        noise = noise[:, :1]  # identical for every load case: one factorisation
-    cov = kern(x, sigma_a=sigma_a, length=length)[:, None].expand(-1, noise.shape[1], n, n)
-    cov = cov.clone()
-    cov.diagonal(dim1=-2, dim2=-1).add_(noise)
-    chol, failed = cholesky_with_jitter(cov)  # B x L' x n x n, L' = L or 1
-    z = torch.linalg.solve_triangular(chol, resid.unsqueeze(-1), upper=False)
-    log_det = 2.0 * chol.diagonal(dim1=-2, dim2=-1).log().sum(-1)  # B x L'
-    log_det = log_det.sum(-1) * (n_loads / noise.shape[1])
-    value = -0.5 * (z.square().sum((-1, -2, -3)) + log_det + n_loads * n * LOG_2PI)
-    return torch.where(failed.any(-1), -torch.inf, value)
 
 
 def _check_shapes(y: Tensor, eta: Tensor, x: Tensor) -> None:

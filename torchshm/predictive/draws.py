@@ -5,9 +5,12 @@ For one posterior sample with model response ``eta`` (`L' x n`) and discrepancy 
 
     y_l ~ N(eta_l, sigma_m**2 diag(eta_l)**2 + K + sigma_e**2 I)
 
-as ``eta_l + sigma_m * eta_l * z1 + chol(K + sigma_e**2 I) @ z2`` with standard normal ``z1``,
-``z2``. The discrepancy is drawn per load case, as the likelihood treats load cases as
-independent (block-diagonal covariance).
+by :meth:`torchshm.likelihood.marginal.Eq21.sample`, the distribution the likelihood uses:
+``eta_l + sigma_m * eta_l * z1`` plus the discrepancy and noise, drawn through
+``chol(K + sigma_e**2 I)`` (dense) or, for the Markov kernels at
+:data:`~torchshm.likelihood.marginal.STATE_SPACE_FROM` points and more, through the kernel's
+state-space form in O(n). The discrepancy is drawn per load case, as the likelihood treats load
+cases as independent (block-diagonal covariance).
 """
 
 from __future__ import annotations
@@ -17,11 +20,8 @@ import torch
 from torch import Tensor
 
 from torchshm.kernels import Kernel, get_kernel
-from torchshm.kernels.base import as_float64, distances
-from torchshm.likelihood.cholesky import cholesky_with_jitter
-
-#: largest covariance batch [bytes] built and factorised at once (small batches stay in cache)
-CHUNK_BYTES = 2**21
+from torchshm.kernels.base import as_float64
+from torchshm.likelihood.marginal import Eq21
 
 
 def predictive_draws(
@@ -33,12 +33,13 @@ def predictive_draws(
     sigma_m: float,
     sigma_e: float,
     generator: torch.Generator,
+    method: str = "auto",
 ) -> Tensor:
     """One draw of unobserved strains per model response (paper, Eq. 15 with Eq. 21).
 
-    The standard normal variates are drawn from ``generator`` in a fixed order (first the
-    multiplicative term, `N x L' x n`, then the correlated term, `N x L' x n`), so two calls with
-    equally seeded generators use the same noise whatever ``eta`` is.
+    The standard normal variates are drawn from ``generator`` in a fixed order (see
+    :meth:`~torchshm.likelihood.marginal.Eq21.sample`), so two calls with equally seeded
+    generators use the same noise whatever ``eta`` is.
 
     Args:
         eta: `N x L' x n` model responses [µε].
@@ -49,31 +50,16 @@ def predictive_draws(
         sigma_m: standard deviation of the multiplicative model error (dimensionless).
         sigma_e: standard deviation of the measurement noise [µε].
         generator: source of the standard normal variates.
+        method: ``"auto"``, ``"dense"`` or ``"state_space"`` (as for the likelihood).
 
     Returns:
         `N x L' x n` draws [µε].
     """
     kern = get_kernel(kernel)
     eta, x, sigma_a = as_float64(eta), as_float64(x), as_float64(sigma_a)
-    n_draws, _, n = eta.shape
-    z1 = torch.randn(eta.shape, generator=generator, dtype=torch.float64)
-    z2 = torch.randn(eta.shape, generator=generator, dtype=torch.float64)
-    out = eta + sigma_m * eta * z1
-    if kern.is_diagonal:
-        sd = (kern.diag(x, sigma_a=sigma_a) + sigma_e**2).sqrt()  # N x n
-        return out + sd[:, None, :] * z2
-    ell = as_float64(length)
-    d = distances(x, x)
-    size = max(1, CHUNK_BYTES // (n * n * 8))
-    for start in range(0, n_draws, size):
-        part = slice(start, start + size)
-        cov = kern.correlation(d, ell[part, None, None]) * sigma_a[part, None, None].square()
-        cov.diagonal(dim1=-2, dim2=-1).add_(sigma_e**2)
-        chol, failed = cholesky_with_jitter(cov)
-        if bool(failed.any()):
-            raise ValueError("predictive draws: a discrepancy covariance is not positive definite")
-        out[part] += torch.matmul(chol, z2[part].mT).mT
-    return out
+    ell = as_float64(0.0 if length is None or not kern.has_length else length).expand(sigma_a.shape)
+    form = method if method != "auto" or sigma_e > 0 else "dense"
+    return Eq21(eta, x, kern, sigma_a, ell, sigma_m, sigma_e, form).sample(generator)
 
 
 def equal_tailed(samples: Tensor, level: float = 0.95) -> tuple[Tensor, Tensor, Tensor]:

@@ -1,0 +1,190 @@
+"""The Gaussian of Eq. (21), built in one place for the likelihood and the predictive draws.
+
+For load case ``l`` of a parameter vector with model response ``eta_l`` (`n`)::
+
+    y_l ~ N(eta_l, sigma_m**2 diag(eta_l)**2 + K + sigma_e**2 I)
+
+:class:`Eq21` is that distribution for a batch of parameter vectors, in the spirit of GPyTorch's
+``Likelihood.marginal``: :meth:`Eq21.log_prob` gives the log-likelihood and :meth:`Eq21.sample`
+the posterior predictive draws (Eq. 15), from the same covariance. Two representations:
+
+- ``"dense"``: the `n x n` matrix :func:`covariance`, factorised by batched Cholesky
+  (O(n³) time, O(n²) memory); any kernel; differentiable.
+- ``"state_space"``: for the Markov kernels (exponential, Matérn 3/2 and 5/2) the exact same
+  density and draws from the kernel's state-space form, O(n) time and memory
+  (:mod:`torchshm.likelihood.statespace`); differentiable, CPU or CUDA.
+
+``method="auto"`` takes the state space from :data:`STATE_SPACE_FROM` points per load case
+(the measured crossover, ``docs/likelihood.md``) and refuses, with one line, a dense covariance
+that would not fit in memory.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+import torch
+from torch import Tensor
+
+from torchshm.kernels import Kernel
+from torchshm.likelihood import statespace
+from torchshm.likelihood.cholesky import cholesky_with_jitter
+
+LOG_2PI = math.log(2.0 * math.pi)
+#: points per load case from which ``method="auto"`` uses the state-space form (measured)
+STATE_SPACE_FROM = 1500
+#: largest dense covariance batch [bytes] built and factorised at once when sampling
+SAMPLE_CHUNK_BYTES = 2**21
+#: share of the physical memory that dense covariances may take before they are refused
+DENSE_MEMORY_SHARE = 0.5
+
+
+def covariance(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: Tensor) -> Tensor:
+    """Dense covariances ``K + diag(noise)`` `B x L' x n x n` [µε²].
+
+    Args:
+        x: `n` positions [m].
+        kern: the discrepancy kernel.
+        sigma_a: `B` scales [µε]; length: `B` correlation lengths [m].
+        noise: `B x L' x n` diagonal [µε²].
+    """
+    n = x.shape[0]
+    cov = kern(x, sigma_a=sigma_a, length=length)[:, None].expand(-1, noise.shape[1], n, n).clone()
+    cov.diagonal(dim1=-2, dim2=-1).add_(noise)
+    return cov
+
+
+def choose_method(kern: Kernel, n: int, method: str = "auto", noise_positive: bool = True) -> str:
+    """``"diagonal"``, ``"dense"`` or ``"state_space"`` for `n` points per load case.
+
+    ``"auto"`` takes the state space only when the diagonal of Eq. (21) is known to be
+    positive (``noise_positive``, i.e. ``sigma_e > 0``), which the state-space form needs at
+    repeated positions.
+
+    Raises:
+        ValueError: for an unknown method, ``"state_space"`` with a kernel that has none, or a
+            dense covariance larger than :data:`DENSE_MEMORY_SHARE` of the physical memory.
+    """
+    if method not in ("auto", "dense", "state_space", "diagonal"):
+        raise ValueError(f"method must be 'auto', 'dense' or 'state_space', got {method!r}")
+    if kern.is_diagonal:
+        return "diagonal"
+    if method == "diagonal":
+        raise ValueError(f"kernel {kern.name!r} is not diagonal; use method='auto' or 'dense'")
+    markov = statespace.is_markov(kern)
+    if method == "state_space" and not markov:
+        raise ValueError(f"kernel {kern.name!r} has no state-space form; use method='dense'")
+    if method == "state_space" or (method == "auto" and markov and noise_positive and n >= STATE_SPACE_FROM):
+        return "state_space"
+    need, have = 2 * 8 * n * n, _physical_memory()
+    if need > DENSE_MEMORY_SHARE * have:
+        raise ValueError(
+            f"{n} points per load case: a dense covariance needs {need / 2**30:.1f} GiB of "
+            f"{have / 2**30:.1f} GiB for kernel {kern.name!r}; use 'exponential', 'matern32' or "
+            "'matern52' with sigma_e > 0 (exact O(n) state space) or fewer points (a coarser pitch)"
+        )
+    return "dense"
+
+
+def _physical_memory() -> int:
+    """Physical memory of this machine [bytes]."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
+        return 16 * 2**30
+
+
+@dataclass
+class Eq21:
+    """The Gaussian of Eq. (21) for `B` parameter vectors and `L` load cases.
+
+    Attributes:
+        eta: `B x L x n` model responses [µε].
+        x: `n` positions [m].
+        kern: the discrepancy kernel.
+        sigma_a: `B` discrepancy scales [µε]; length: `B` correlation lengths [m].
+        sigma_m: multiplicative model error (dimensionless); sigma_e: noise sd [µε].
+        method: ``"auto"``, ``"dense"`` or ``"state_space"`` (see :func:`choose_method`).
+    """
+
+    eta: Tensor
+    x: Tensor
+    kern: Kernel
+    sigma_a: Tensor
+    length: Tensor
+    sigma_m: float
+    sigma_e: float
+    method: str = "auto"
+
+    def __post_init__(self) -> None:
+        self.method = choose_method(self.kern, self.x.shape[0], self.method)
+
+    def log_prob(self, y: Tensor) -> Tensor:
+        """Log densities `B` of ``y`` (`L x n`), summed over load cases; -inf where a dense
+        covariance cannot be factorised even with the largest jitter (differentiable)."""
+        n_loads, n = y.shape
+        resid = y - self.eta
+        noise = self.sigma_e**2 + self.sigma_m**2 * self.eta.square()  # B x L x n
+        if self.method == "diagonal":
+            var = self.kern.diag(self.x, sigma_a=self.sigma_a)[:, None, :] + noise
+            singular = (var <= 0).any(-1).any(-1)
+            var = torch.where(var > 0, var, 1.0)
+            terms = resid.square() / var + var.log() + LOG_2PI
+            return torch.where(singular, -torch.inf, -0.5 * terms.sum((-1, -2)))
+        if self.method == "state_space":
+            order = self._order()
+            return statespace.log_density(
+                resid[..., order], noise[..., order], self.x[order], self.kern, self.sigma_a, self.length
+            )
+        if self.sigma_m == 0.0:
+            noise = noise[:, :1]  # identical for every load case: one factorisation
+        chol, failed = cholesky_with_jitter(covariance(self.x, self.kern, self.sigma_a, self.length, noise))
+        z = torch.linalg.solve_triangular(chol, resid.unsqueeze(-1), upper=False)
+        log_det = 2.0 * chol.diagonal(dim1=-2, dim2=-1).log().sum(-1)  # B x L'
+        log_det = log_det.sum(-1) * (n_loads / noise.shape[1])
+        value = -0.5 * (z.square().sum((-1, -2, -3)) + log_det + n_loads * n * LOG_2PI)
+        return torch.where(failed.any(-1), -torch.inf, value)
+
+    def sample(self, generator: torch.Generator) -> Tensor:
+        """One draw `B x L x n` per response: ``eta + sigma_m eta z1 + f + e``.
+
+        Standard normals come from ``generator`` in a fixed order: `B x L x n` for the
+        multiplicative term, then for the dense and diagonal forms `B x L x n` multiplied by the
+        factor of ``K + sigma_e**2 I``, for the state space `B x L x n x p` process noise and
+        `B x L x n` measurement noise.
+
+        Raises:
+            ValueError: if a dense discrepancy covariance is not positive definite.
+        """
+        eta, x = self.eta, self.x
+        z1 = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
+        out = eta + self.sigma_m * eta * z1
+        if self.method == "state_space":
+            p = self.kern.state_dim
+            z = torch.randn((*eta.shape, p), generator=generator, dtype=torch.float64).to(eta.device)
+            e = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
+            order = self._order()
+            f = torch.empty_like(eta)
+            f[..., order] = statespace.sample(x[order], self.kern, self.sigma_a, self.length, z)
+            return out + f + self.sigma_e * e
+        z2 = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
+        if self.method == "diagonal":
+            sd = (self.kern.diag(x, sigma_a=self.sigma_a) + self.sigma_e**2).sqrt()  # B x n
+            return out + sd[:, None, :] * z2
+        n = x.shape[0]
+        step = max(1, SAMPLE_CHUNK_BYTES // (n * n * 8))
+        for start in range(0, eta.shape[0], step):
+            part = slice(start, start + step)
+            noise = torch.full_like(eta[part, :1], self.sigma_e**2)
+            cov = covariance(x, self.kern, self.sigma_a[part], self.length[part], noise)
+            chol, failed = cholesky_with_jitter(cov)
+            if bool(failed.any()):
+                raise ValueError("predictive draws: a discrepancy covariance is not positive definite")
+            out[part] += torch.matmul(chol[:, 0], z2[part].mT).mT
+        return out
+
+    def _order(self) -> Tensor:
+        """Indices that sort the positions (the state space runs along ascending ``x``)."""
+        return torch.argsort(self.x, stable=True)
