@@ -9,8 +9,10 @@ and OmegaConf as their own exceptions with multi-line messages, which :func:`one
 from __future__ import annotations
 
 import os
+import shutil
 import sys
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
+from pathlib import Path
 from typing import Iterator
 
 from hydra.errors import HydraException, OverrideParseException
@@ -37,12 +39,37 @@ class BadInput(BaseException):
 
 
 @contextmanager
-def bad_input_in_job() -> Iterator[None]:
-    """Inside a Hydra task function: re-raise an :data:`INPUT_ERRORS` exception as :class:`BadInput`."""
+def bad_input_in_job(run_dir: Path | None = None) -> Iterator[None]:
+    """Inside a Hydra task function: re-raise an :data:`INPUT_ERRORS` exception as :class:`BadInput`.
+
+    Args:
+        run_dir: the job's run folder; a refused run removes it when it holds nothing but
+            Hydra's ``.hydra/`` record and empty log files (see :func:`discard_empty_run`).
+    """
     try:
         yield
     except INPUT_ERRORS as err:
+        if run_dir is not None:
+            discard_empty_run(run_dir)
         raise BadInput(one_line(err)) from err
+
+
+def discard_empty_run(run_dir: Path) -> bool:
+    """Remove a refused run's folder if nothing was written in it but ``.hydra/`` and empty
+    logs, and then its parent and grandparent if they are left empty. Returns whether the folder
+    was removed."""
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        return False
+    for path in run_dir.rglob("*"):
+        inside_hydra = path.relative_to(run_dir).parts[0] == ".hydra"
+        if path.is_file() and not inside_hydra and path.stat().st_size > 0:
+            return False
+    shutil.rmtree(run_dir, ignore_errors=True)
+    for parent in run_dir.parents[:2]:  # only empty ones: e.g. runs/<day>/ of this one run
+        with suppress(OSError):
+            parent.rmdir()
+    return not run_dir.exists()
 
 
 def one_line(err: BaseException) -> str:
@@ -109,4 +136,7 @@ def report_bad_input(prog: str) -> Iterator[None]:
             os.environ["HYDRA_FULL_ERROR"] = previous
 
 
-__all__ = ["EXIT_BAD_INPUT", "INPUT_ERRORS", "BadInput", "bad_input_in_job", "one_line", "report_bad_input"]
+__all__ = [
+    "EXIT_BAD_INPUT", "INPUT_ERRORS", "BadInput", "bad_input_in_job", "discard_empty_run", "one_line",
+    "report_bad_input",
+]

@@ -26,8 +26,9 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
-from torchshm.cli.errors import bad_input_in_job, report_bad_input
+from torchshm.cli.errors import BadInput, bad_input_in_job, one_line, report_bad_input
 from torchshm.config import CONF_DIR, CONFIG_NAME, normalize_overrides, register_configs, to_settings
+from torchshm.inference.target import ModelRunsFailed
 from torchshm.storage.interrupt import EXIT_SIGINT, resumable, store_of
 
 PROG = "torchshm-identify"
@@ -47,12 +48,15 @@ def _app(cfg: DictConfig) -> float | None:
     from torchshm.cli.job import prepare_job, run_job
 
     logging.captureWarnings(True)  # warnings go to the run's log, not to stderr
-    with bad_input_in_job():  # only the inputs: a failure later is a failed run, not bad input
+    out_dir = Path(HydraConfig.get().runtime.output_dir)
+    with bad_input_in_job(out_dir):  # only the inputs: a later failure is a failed run
         settings = to_settings(cfg)
         job = prepare_job(settings, base=Path(hydra.utils.get_original_cwd()))
-    out_dir = Path(HydraConfig.get().runtime.output_dir)
     with resumable(PROG, store_of(job.problem), how="run the same command again"):
-        result = run_job(job, out_dir)
+        try:
+            result = run_job(job, out_dir)
+        except ModelRunsFailed as err:  # no model run finished: one line, as for bad input
+            raise BadInput(one_line(err)) from err
     post = result.posterior
     log.info("%d model evaluations in %.1f s; outputs in %s",
              post.n_model_evaluations, result.wall_time_s, out_dir)

@@ -170,8 +170,12 @@ def run_job(job: PreparedJob, out_dir: Path) -> JobResult:
 
 
 def _check_method_options(settings: Config, n_params: int) -> None:
-    """Refuse emcee options that would fail only after sampling (``ValueError`` naming the key)."""
+    """Refuse method options that would fail only after model runs (``ValueError`` naming the key)."""
     options = method_options(settings.method)
+    if settings.method.name.value == "vbmc":
+        from torchshm.inference.start import vbmc_budget
+
+        vbmc_budget(n_params, options)
     if settings.method.name.value != "emcee":
         return
     if int(options.get("thin", 1)) < 1:

@@ -63,6 +63,7 @@ def write_posterior(post: Any, out_dir: Path, attrs: Mapping[str, Any],
         attrs: metadata of the measurements (``truth_<name>`` marks the corner plot).
         labels: axis label per parameter name (default: the names).
     """
+    log.info("writing the posterior file, summary and figures to %s", out_dir)
     files = {"posterior": post.save(out_dir / "posterior.nc")}
     summary = post.summary()
     files["summary"] = out_dir / "summary.csv"
@@ -95,6 +96,8 @@ def write_predictive(
     import torchshm
     from torchshm.predictive import predictive_metrics
 
+    log.info("posterior predictive of the held-out load case(s) %s (%d draws)",
+             [float(v) for v in held_out.loads], n)
     try:
         pred = torchshm.posterior_predictive(post, [float(v) for v in held_out.loads], n=n, seed=seed)
     except ValueError as err:

@@ -82,15 +82,35 @@ def _load_csv(path: Path) -> Measurements:
     header = [h.strip().lower() for h in lines[start].split(",")]
     if sorted(header) != sorted(CSV_COLUMNS):
         raise ValueError(f"{path}: header must name the columns load, x, strain; got {lines[start]!r}")
-    rows = [line for line in lines[start + 1 :] if line.strip()]
-    try:
-        table = np.array([[float(v) for v in row.split(",")] for row in rows], dtype=np.float64)
-    except ValueError as err:
-        raise ValueError(f"{path}: malformed row ({err})") from None
-    if table.ndim != 2 or table.shape[0] == 0 or table.shape[1] != 3:
-        raise ValueError(f"{path}: expected rows of 3 numbers (load, x, strain)")
+    numbers = [j + 1 for j in range(start + 1, len(lines)) if lines[j].strip()]  # 1-based
+    table = np.array([_csv_row(lines[j - 1], j, path) for j in numbers], dtype=np.float64)
+    if table.shape[0] == 0:
+        raise ValueError(f"{path}: no data rows after the header (expected load, x, strain)")
     cols = {name: table[:, header.index(name)] for name in CSV_COLUMNS}
+    bad = ~np.isfinite(table).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        what = [name for name in CSV_COLUMNS if not np.isfinite(cols[name][i])]
+        raise ValueError(
+            f"{path}, line {numbers[i]}: {' and '.join(what)} is {cols[what[0]][i]} (load "
+            f"{cols['load'][i]:g}, x = {cols['x'][i]:g} m); every value must be a finite number "
+            f"({int(bad.sum())} such row(s))"
+        )
     return _from_long(cols["load"], cols["x"], cols["strain"], sigma_e, attrs, path)
+
+
+def _csv_row(line: str, number: int, path: Path) -> list[float]:
+    """The 3 numbers of data line ``number`` (1-based); ``ValueError`` naming file and line."""
+    fields = line.split(",")
+    if len(fields) != 3:
+        raise ValueError(
+            f"{path}, line {number}: expected 3 values (load, x, strain), got {len(fields)}: "
+            f"{line.strip()[:80]!r}"
+        )
+    try:
+        return [float(v) for v in fields]
+    except ValueError as err:
+        raise ValueError(f"{path}, line {number}: malformed row ({err})") from None
 
 
 def _from_long(
@@ -143,9 +163,19 @@ def _load_nc(path: Path) -> Measurements:
         attrs = json.loads(ds.attrs.get("attrs", "{}"))
     except ValueError:
         raise ValueError(f"{path}: malformed 'attrs' attribute") from None
-    return Measurements(
-        ds["x"].values, ds["strain"].values, ds["load"].values, float(ds.attrs.get("sigma_e", 0.1)), attrs
-    )
+    try:
+        strain = np.asarray(ds["strain"].values, dtype=np.float64)
+        x, load = (np.asarray(ds[c].values, dtype=np.float64) for c in ("x", "load"))
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"{path}: strain, load and x must be numeric ({err})") from None
+    bad = np.argwhere(~np.isfinite(strain))
+    if bad.size:
+        i, j = (int(v) for v in bad[0])
+        raise ValueError(
+            f"{path}: strain is {strain[i, j]} at load {load[i]:g}, x = {x[j]:g} m (index "
+            f"({i}, {j})); every value must be a finite number ({len(bad)} such value(s))"
+        )
+    return Measurements(x, strain, load, float(ds.attrs.get("sigma_e", 0.1)), attrs)
 
 
 __all__ = ["save", "load"]

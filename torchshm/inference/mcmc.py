@@ -24,6 +24,19 @@ from torchshm.inference.target import LogJointTarget
 from torchshm.inference.tensorboard import RunTrace, marginal_scalars
 
 
+#: a walker accepting less than this fraction of the median walker's acceptance is stuck
+STUCK_RATIO = 0.25
+
+
+def stuck_walkers(acceptance: np.ndarray) -> np.ndarray:
+    """Indices of the walkers whose acceptance fraction is below ``STUCK_RATIO`` times the
+    median walker's (e.g. 0.047 among walkers near 0.3): a walker caught in a low mode or at a
+    bound, whose samples bias the posterior while the other walkers look healthy."""
+    acceptance = np.asarray(acceptance, dtype=np.float64)
+    median = float(np.median(acceptance)) if acceptance.size else 0.0
+    return np.flatnonzero(acceptance < STUCK_RATIO * median)
+
+
 def _problem_signature(problem: Any) -> str:
     """What a resumed chain must share with the run that started it (JSON text)."""
     m = problem.measurements
@@ -179,6 +192,8 @@ def _posterior(
         **extra,
         "acceptance_fraction": float(np.mean(acceptance)),
         "acceptance_fraction_min": float(np.min(acceptance)),
+        "stuck_walkers": stuck_walkers(acceptance).tolist(),
+        "n_stuck_walkers": int(stuck_walkers(acceptance).size),
         "tau_max": tau_max,
         "n_over_tau": float(n_over_tau),
         "n_log_joint_evaluations": len(target.y),
@@ -189,6 +204,16 @@ def _posterior(
         warnings.warn(
             f"emcee: the chain after burn-in is {n_over_tau:.1f} autocorrelation times long "
             "(fewer than 50): the posterior and tau estimates may be unreliable; run more steps",
+            RuntimeWarning, stacklevel=3,
+        )
+    stuck = diagnostics["stuck_walkers"]
+    if stuck:
+        shown = ", ".join(f"{i} ({acceptance[i]:.3f})" for i in stuck[:5])
+        warnings.warn(
+            f"emcee: {len(stuck)} of {n_walkers} walkers are stuck: walker(s) {shown}"
+            f"{', ...' if len(stuck) > 5 else ''} accepted under {STUCK_RATIO:g} times the median "
+            f"acceptance fraction {np.median(acceptance):.3f}; their samples bias the posterior: "
+            "run more steps or start the walkers elsewhere",
             RuntimeWarning, stacklevel=3,
         )
     samples = backend.get_chain(discard=burn, thin=thin, flat=True)

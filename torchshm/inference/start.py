@@ -79,6 +79,32 @@ class StartSettings:
         )
 
 
+def vbmc_budget(dim: int, options: dict) -> int:
+    """The evaluation budget of a VBMC run with ``options``, checked before any model run.
+
+    ``max_fun_evals`` None or absent means PyVBMC's default, ``50 * (2 + D)``. The start-up
+    search takes up to half of the budget and PyVBMC's initial design needs ``fun_eval_start``
+    runs, so a budget below ``2 * fun_eval_start`` cannot work.
+
+    Raises:
+        ValueError: naming ``max_fun_evals`` (``method.max_fun_evals`` in the config) when it is
+            not an integer or too small for ``dim`` parameters.
+    """
+    value = options.get("max_fun_evals")
+    if value is None:
+        return 50 * (2 + dim)
+    n_initial = options.get("fun_eval_start") or 10 * -(-(dim + 1) // 10)
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"max_fun_evals (method.max_fun_evals) must be an integer, got {value!r}")
+    if value < 2 * int(n_initial):
+        raise ValueError(
+            f"max_fun_evals (method.max_fun_evals) must be at least {2 * int(n_initial)} for "
+            f"{dim} parameters (the start-up search takes up to half of it and PyVBMC's initial "
+            f"design needs fun_eval_start = {int(n_initial)} runs), got {value}"
+        )
+    return int(value)
+
+
 def latin_design(plausible: np.ndarray, n: int, seed: int) -> np.ndarray:
     """``n`` Latin hypercube points in the plausible box ``plausible`` (`D x 2`) -> `n x D`."""
     if n <= 0:

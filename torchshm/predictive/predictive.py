@@ -17,6 +17,8 @@ model itself in step 3; it exists to check the emulator and costs `n` model eval
 
 from __future__ import annotations
 
+import logging
+import time
 from typing import Any, Iterable, Literal
 
 import numpy as np
@@ -35,6 +37,8 @@ from torchshm.predictive.selection import (
     random_streams,
 )
 from torchshm.surrogate import Surrogate
+
+logger = logging.getLogger(__name__)
 
 #: the emulator variance counts when its largest value exceeds this share of ``sigma_e**2``
 SURROGATE_VARIANCE_RATIO = 0.01
@@ -97,6 +101,7 @@ def posterior_predictive(
         used = bool(include_surrogate_variance)
     if used:
         eta = eta + sd * torch.randn(eta.shape, generator=streams.emulator, dtype=torch.float64)
+    logger.info("posterior predictive: drawing %d strain fields at %d load case(s)", n, len(loads_t))
     samples = _draw(problem, eta, x, sigma_a, length, streams.noise)
     return PredictiveResult.from_draws(
         samples, x, loads_t, level, theta, list(post.names), eta, used, max_sd,
@@ -130,6 +135,7 @@ def exact_predictive(
     with torch.no_grad():
         out = torch.as_tensor(model(torch.as_tensor(theta_p)), dtype=torch.float64)
     eta = out[:, loads_idx][:, :, pos_idx]
+    logger.info("posterior predictive: drawing %d strain fields at %d load case(s)", n, len(loads_t))
     samples = _draw(problem, eta, x, sigma_a, length, streams.noise)
     return PredictiveResult.from_draws(
         samples, x, _loads_tensor(problem.model, loads_idx), level, theta, list(post.names),
@@ -159,7 +165,12 @@ def stored_emulator(
     theta_train, outputs = _training_data(problem, loads_idx, pos_idx, seed)
     options = {"transform": transform_options(problem.model),
                "names": list(problem.physical_names), **(emulator_options or {})}
-    return fit_emulator(theta_train, outputs, x, _loads_tensor(problem.model, loads_idx), **options)
+    t0 = time.perf_counter()
+    logger.info("posterior predictive: fitting the emulator to %d stored model runs "
+                "(%d load case(s) x %d positions)", *outputs.shape)
+    emulator = fit_emulator(theta_train, outputs, x, _loads_tensor(problem.model, loads_idx), **options)
+    logger.info("posterior predictive: emulator fitted in %.1f s", time.perf_counter() - t0)
+    return emulator
 
 
 def _training_data(problem: Any, loads_idx: Tensor, pos_idx: Tensor, seed: int) -> tuple[Tensor, Tensor]:

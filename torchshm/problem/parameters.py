@@ -39,7 +39,8 @@ def read_priors(
 
     Raises:
         ValueError: naming the entry, for a value that is neither a prior nor a finite number,
-            a missing ``sigma_a`` (or ``length``), a negative fixed ``sigma_a`` or ``length``, a
+            a missing ``sigma_a`` (or ``length``), a negative fixed ``sigma_a`` or ``length`` (or a
+            ``length`` of 0), a prior of either whose hard bounds include negative values, a
             name the model does not take, or a model parameter without prior.
     """
     out: dict[str, Prior | float] = {}
@@ -50,8 +51,7 @@ def read_priors(
     for name in STATISTICAL[: 2 if kernel.has_length else 1]:
         if name not in out:
             raise ValueError(f"priors: no entry for {name!r}, needed by kernel {kernel.name!r}")
-        if not isinstance(out[name], Prior) and out[name] < 0:  # type: ignore[operator]
-            raise ValueError(f"priors: fixed {name} must be >= 0, got {out[name]}")
+        _check_scale(name, out[name])
     physical = [name for name in out if name not in STATISTICAL]
     if model_names is not None:
         model_names = [str(n) for n in model_names]
@@ -68,6 +68,22 @@ def read_priors(
     if not physical:
         raise ValueError("priors: no physical parameter (every entry is sigma_a or length)")
     return out, physical
+
+
+def _check_scale(name: str, value: Prior | float) -> None:
+    """``sigma_a`` [µε] and ``length`` [m] are scales: a fixed value must be >= 0 (``length``
+    > 0: a length of 0 would turn the kernel into the independent one) and a prior's hard bounds
+    must exclude negative values (else evaluations are spent where the likelihood is undefined)."""
+    if isinstance(value, Prior):
+        lo = value.hard_bounds[0]
+        if lo < 0:
+            raise ValueError(
+                f"priors: {name} is a scale and cannot be negative, but its prior {value!r} has "
+                f"hard bounds {tuple(value.hard_bounds)}; give bounds with a lower bound >= 0"
+            )
+    elif value < 0 or (name == "length" and value == 0):
+        rule = "> 0 (use the independent kernel for no correlation)" if name == "length" else ">= 0"
+        raise ValueError(f"priors: fixed {name} must be {rule}, got {value}")
 
 
 def _prior_or_value(name: str, value: object) -> Prior | float:

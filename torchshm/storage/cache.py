@@ -62,7 +62,8 @@ class MemoryBackend:
                 out = as_tensor(model(rows))
             if tuple(out.shape) != (rows.shape[0], *shape):
                 raise ValueError(
-                    f"the model returned shape {tuple(out.shape)}, expected {(rows.shape[0], *shape)}"
+                    f"model output has shape {tuple(out.shape)} for {rows.shape[0]} parameter "
+                    f"vector(s), expected {(rows.shape[0], *shape)}"
                 )
         except Exception as exc:  # record it; with several vectors, find which ones fail
             if rows.shape[0] == 1:
@@ -72,21 +73,22 @@ class MemoryBackend:
                 self._run_one(model, rows[i : i + 1], key, shape)
             return 2 * rows.shape[0]
         for key, row in zip(keys, out, strict=True):
-            if bool(torch.isfinite(row).all()):
-                self._outputs[key] = row.detach()
-            else:
-                n_bad = int((~torch.isfinite(row)).sum())
-                self._errors[key] = (
-                    f"ValueError: model output has {n_bad} NaN or inf values (of {row.numel()})"
-                )
+            self._keep(key, lambda row=row: check_outputs(row, shape))
         return rows.shape[0]
 
     def _run_one(self, model: Any, row: Tensor, key: str, shape: tuple[int, int]) -> None:
         """Run one vector `1 x P` and keep its output or its error text."""
-        try:
+
+        def run() -> np.ndarray:
             with torch.no_grad():
-                raw = model(row)
-            self._outputs[key] = torch.as_tensor(check_outputs(raw, shape))
+                return check_outputs(model(row), shape)
+
+        self._keep(key, run)
+
+    def _keep(self, key: str, run: Any) -> None:
+        """Keep the output `L x n` that ``run()`` returns, or the error text of what it raises."""
+        try:
+            self._outputs[key] = torch.as_tensor(run())
         except Exception as exc:  # a failing model run is data, not a crash
             self._errors[key] = error_text(exc)
 
