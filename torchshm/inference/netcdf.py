@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from torchshm.inference.posterior import Posterior
+from torchshm.inference.posterior import Posterior, as_chains
 from torchshm.inference.priors_json import priors_from_json, priors_to_json
 
 ENGINE = "h5netcdf"
@@ -32,9 +32,7 @@ FORMAT_VERSION = 1
 
 def _chains(post: Posterior, values: np.ndarray) -> np.ndarray:
     """Flat step-major values (`S x ...`) as (`chain x draw x ...`)."""
-    n_chain = max(1, int(post.n_chains))
-    draws = values.shape[0] // n_chain
-    return np.swapaxes(values.reshape(draws, n_chain, *values.shape[1:]), 0, 1)
+    return as_chains(values, post.n_chains)
 
 
 def _posterior_group(post: Posterior) -> xr.Dataset:

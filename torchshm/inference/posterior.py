@@ -11,86 +11,24 @@ from __future__ import annotations
 import copy
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from torchshm.inference.summary import (
+    SUMMARY_QUANTILES,
+    PosteriorSummary,
+    SummaryRow,
+    as_chains,
+    summarize,
+)
 from torchshm.problem.prior import JointPrior
 
-#: the quantiles reported by :meth:`Posterior.summary` (the 95 % equal-tailed interval)
-SUMMARY_QUANTILES = (0.025, 0.975)
+__all__ = ["SUMMARY_QUANTILES", "Posterior", "PosteriorSummary", "SummaryRow", "as_chains",
+           "summarize"]
 
-
-@dataclass(frozen=True)
-class SummaryRow:
-    """Summary statistics of one parameter's marginal posterior (in the parameter's units)."""
-
-    name: str
-    mean: float
-    sd: float
-    q2_5: float
-    q97_5: float
-
-
-@dataclass(frozen=True)
-class PosteriorSummary:
-    """A table of marginal summaries, one row per parameter; printable and CSV-able.
-
-    Attributes:
-        rows: one :class:`SummaryRow` per inferred parameter, in the posterior's order.
-    """
-
-    rows: tuple[SummaryRow, ...]
-
-    COLUMNS = ("name", "mean", "sd", "q2.5", "q97.5")
-
-    def __getitem__(self, name: str) -> SummaryRow:
-        """The row of parameter ``name``."""
-        for row in self.rows:
-            if row.name == name:
-                return row
-        raise KeyError(f"no parameter {name!r} in the summary; have {[r.name for r in self.rows]}")
-
-    def to_csv(self, path: str | Path | None = None) -> str:
-        """The table as CSV text (header ``name,mean,sd,q2.5,q97.5``), also written to ``path``."""
-        lines = [",".join(self.COLUMNS)]
-        lines += [
-            f"{r.name},{r.mean:.10g},{r.sd:.10g},{r.q2_5:.10g},{r.q97_5:.10g}" for r in self.rows
-        ]
-        text = "\n".join(lines) + "\n"
-        if path is not None:
-            Path(path).write_text(text)
-        return text
-
-    def as_dict(self) -> dict[str, dict[str, float]]:
-        """``{name: {"mean", "sd", "q2.5", "q97.5"}}``."""
-        return {
-            r.name: {"mean": r.mean, "sd": r.sd, "q2.5": r.q2_5, "q97.5": r.q97_5}
-            for r in self.rows
-        }
-
-    def __str__(self) -> str:
-        width = max([len("parameter")] + [len(r.name) for r in self.rows])
-        head = f"{'parameter':<{width}} {'mean':>11} {'sd':>11} {'q2.5':>11} {'q97.5':>11}"
-        body = [
-            f"{r.name:<{width}} {r.mean:>11.4g} {r.sd:>11.4g} {r.q2_5:>11.4g} {r.q97_5:>11.4g}"
-            for r in self.rows
-        ]
-        return "\n".join([head, *body])
-
-
-def summarize(names: list[str], samples: np.ndarray) -> PosteriorSummary:
-    """Mean, sd and 2.5 % / 97.5 % quantiles of each column of ``samples`` (`S x D`)."""
-    samples = np.asarray(samples, dtype=np.float64)
-    mean = samples.mean(axis=0)
-    sd = samples.std(axis=0, ddof=1) if samples.shape[0] > 1 else np.zeros(len(names))
-    lo, hi = np.quantile(samples, SUMMARY_QUANTILES, axis=0)
-    rows = tuple(
-        SummaryRow(n, float(m), float(s), float(a), float(b))
-        for n, m, s, a, b in zip(names, mean, sd, lo, hi)
-    )
-    return PosteriorSummary(rows)
-
+if TYPE_CHECKING:
+    import arviz as az
 
 @dataclass
 class Posterior:
@@ -192,7 +130,36 @@ class Posterior:
 
     def summary(self) -> PosteriorSummary:
         """Mean, sd and 95 % equal-tailed interval of each parameter, from :attr:`samples`."""
-        return summarize(self.names, self.samples)
+        return summarize(self.names, self.samples, self.n_chains)
+
+    def to_arviz(self) -> az.InferenceData:
+        """The posterior as an ArviZ ``InferenceData``.
+
+        Groups: ``posterior`` (one variable per parameter, dims ``chain, draw``: emcee's walkers
+        are its chains, VBMC's draws one chain), ``sample_stats`` (e.g. emcee's ``lp``) and,
+        when the problem is attached, ``observed_data`` (``y`` [µε], dims ``load, x``). The
+        attributes hold the method, the evidence and the convergence flag. Use it with ArviZ's
+        own functions (``az.summary``, ``az.ess``, ``az.rhat``, ``az.plot_trace``).
+        """
+        import arviz as az
+
+        posterior = {n: as_chains(self.samples[:, i], self.n_chains)
+                     for i, n in enumerate(self.names)}
+        stats = {k: as_chains(np.asarray(v), self.n_chains) for k, v in self.sample_stats.items()}
+        meas = getattr(self.problem, "measurements", None)
+        observed = None if meas is None else {"y": np.asarray(meas.y, dtype=np.float64)}
+        coords = None if meas is None else {"load": np.asarray(meas.loads, dtype=np.float64),
+                                             "x": np.asarray(meas.x, dtype=np.float64)}
+        attrs = {"method": self.method, "converged": int(self.converged),
+                 "n_model_evaluations": int(self.n_model_evaluations)}
+        if self.log_evidence is not None:
+            attrs["log_evidence"] = float(self.log_evidence)
+        idata = az.from_dict(
+            posterior=posterior, sample_stats=stats or None, observed_data=observed,
+            coords=coords, dims=None if meas is None else {"y": ["load", "x"]}, attrs=attrs,
+        )
+        idata.posterior.attrs.update(attrs)
+        return idata
 
     def save(self, path: str | Path) -> Path:
         """Write the posterior to one netCDF file (InferenceData-style groups); returns the path."""
