@@ -133,3 +133,18 @@ def test_bad_options_are_named() -> None:
         torchshm.identify(problem, "emulator", batch_size=0)
     with pytest.raises(ValueError, match="store"):
         torchshm.identify(problem, "emulator", n_jobs=2)
+
+
+def test_cli_config_selects_the_method() -> None:
+    from hydra import compose, initialize_config_dir
+
+    from torchshm.config import CONF_DIR, CONFIG_NAME, method_options, register_configs, to_settings
+
+    register_configs()
+    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+        cfg = compose(CONFIG_NAME, overrides=["method=emulator", "method.batch_size=4"])
+    settings = to_settings(cfg)
+    options = method_options(settings.method)
+    assert settings.method.name.value == "emulator"
+    assert options["batch_size"] == 4 and options["tv_tol"] == 0.05
+    assert "max_model_evaluations" not in options  # None: the method's default budget

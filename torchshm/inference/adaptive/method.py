@@ -22,6 +22,7 @@ the last emulator (``log_pdf``), draws and a log evidence by importance sampling
 
 from __future__ import annotations
 
+import logging
 import time
 import warnings
 from pathlib import Path
@@ -36,6 +37,8 @@ from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, physical_co
 from torchshm.inference.adaptive.runs import RunSet, run_batch
 from torchshm.inference.posterior import Posterior
 from torchshm.inference.tensorboard import RunTrace, marginal_scalars
+
+logger = logging.getLogger(__name__)
 
 
 def run_emulator(
@@ -117,6 +120,8 @@ def run_emulator(
                    "wall_time_s": time.perf_counter() - t_round}
             row.update(marginal_scalars(names, samples))
             trace.log(row)
+            logger.info("round %d: %d new runs (%d in all), TV %.3f, MMTV %.3f, emulator "
+                        "log-likelihood sd %.3f nats", r, new, runs.n_new, tv, mmtv, sd.mean())
             rounds.append({**row, "batch": np.asarray(batch).tolist()})
             left = budget - runs.n_new
             if converged or left <= 0:
