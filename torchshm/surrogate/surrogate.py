@@ -9,6 +9,8 @@ outputs, the transform and the GP's state dict; loading never needs the original
 from __future__ import annotations
 
 import hashlib
+import os
+import pickle
 from pathlib import Path
 from typing import Any
 
@@ -109,8 +111,23 @@ class Surrogate:
         return mean, latent * self.transform.scale.square()
 
     def save(self, path: str | Path) -> None:
-        """Write the surrogate to ``path`` (``torch.save`` of tensors and plain values)."""
-        torch.save(self.state(), Path(path))
+        """Write the surrogate to ``path`` (``torch.save`` of tensors and plain values, with a
+        SHA-256 checksum of the content; written to a temporary file and renamed, so an
+        interrupted save never leaves a damaged file in place of a good one).
+
+        Raises:
+            OSError: if the file cannot be written (one line naming it).
+        """
+        path = Path(path)
+        state = self.state()
+        state["checksum"] = state_checksum(state)
+        temporary = path.with_name(path.name + ".tmp")
+        try:
+            torch.save(state, temporary)
+            os.replace(temporary, path)
+        except (OSError, RuntimeError) as exc:  # torch reports a failed write as RuntimeError
+            temporary.unlink(missing_ok=True)
+            raise OSError(f"cannot write surrogate file {path}: {_first_line(exc)}") from None
 
     def state(self) -> dict[str, Any]:
         """Everything needed to rebuild the surrogate, ``weights_only``-loadable."""
@@ -143,11 +160,27 @@ def load_surrogate(path: str | Path) -> Surrogate:
     """Read a surrogate written by :meth:`Surrogate.save`; the model is not needed.
 
     Raises:
-        ValueError: if the file is not a torchshm surrogate.
+        ValueError: if the file is not a torchshm surrogate, is truncated or damaged (its
+            checksum, when it has one, does not match), or holds Python objects (never
+            unpickled). One line naming the file.
     """
-    state = torch.load(Path(path), map_location="cpu", weights_only=True)
+    try:
+        state = torch.load(Path(path), map_location="cpu", weights_only=True)
+    except FileNotFoundError:
+        raise
+    except pickle.UnpicklingError as exc:
+        if "Unsupported global" in str(exc):
+            raise ValueError(f"{path} is not a torchshm surrogate file: it holds Python "
+                             f"objects, which are not loaded (unpickling can run code)") from None
+        raise ValueError(f"{path} is not a readable torchshm surrogate file (truncated, "
+                         f"damaged or not a PyTorch file)") from None
+    except Exception as exc:  # truncated or damaged zip archive, or not one at all
+        raise ValueError(f"{path} is not a readable torchshm surrogate file (truncated or "
+                         f"damaged?): {_first_line(exc)}") from None
     if not isinstance(state, dict) or state.get("format") != FILE_FORMAT:
         raise ValueError(f"{path} is not a torchshm surrogate file ({FILE_FORMAT})")
+    if "checksum" in state and state.pop("checksum") != state_checksum(state):
+        raise ValueError(f"{path} is damaged: its content does not match its checksum")
     transform = ResponseTransform.from_state(state["transform"])
     gp = build_gp(transform, state["theta_p"], state["outputs"], state["kernel"],
                   state["min_noise"])
@@ -156,3 +189,33 @@ def load_surrogate(path: str | Path) -> Surrogate:
     return Surrogate(gp, transform, state["x"], state["loads"], tuple(state["names"]),
                      state["model_identity"], state["theta_p"], state["outputs"],
                      state["metadata"])
+
+
+def state_checksum(state: dict[str, Any]) -> str:
+    """SHA-256 over a surrogate state's keys, tensors (bytes) and plain values (repr)."""
+    digest = hashlib.sha256()
+
+    def add(value: Any) -> None:
+        if isinstance(value, Tensor):
+            digest.update(repr((str(value.dtype), tuple(value.shape))).encode())
+            digest.update(value.detach().cpu().contiguous().numpy().tobytes())
+        elif isinstance(value, dict):
+            for key in sorted(value, key=str):
+                if key != "checksum":
+                    digest.update(repr(key).encode())
+                    add(value[key])
+        elif isinstance(value, (list, tuple)):
+            digest.update(b"[")
+            for item in value:
+                add(item)
+            digest.update(b"]")
+        else:
+            digest.update(repr(value).encode())
+
+    add(state)
+    return digest.hexdigest()
+
+
+def _first_line(exc: BaseException) -> str:
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    return lines[0] if lines else type(exc).__name__
