@@ -56,7 +56,7 @@ def run_emulator(
         log_dir: TensorBoard folder (one row of scalars per round), or None.
         batch_size: model runs per round after the initial design.
         max_model_evaluations: budget of new model runs (None: ``15 P``, at least
-            ``n_initial + 2 batch_size``).
+            ``n_initial + 2 batch_size``); 0 identifies from the runs in the store alone.
         n_jobs: local worker processes for a batch (joblib; needs a store when != 1).
         executor: a submitit executor (:func:`torchshm.storage.make_executor`; needs a store).
         n_initial: size of the initial design (None: the smallest multiple of ``batch_size``
@@ -82,8 +82,9 @@ def run_emulator(
     n_phys = len(problem.physical_names)
     batch_size = _positive("batch_size", batch_size)
     n_initial = _positive("n_initial", n_initial or batch_size * -(-(2 * n_phys + 1) // batch_size))
-    budget = max_model_evaluations or max(15 * n_phys, n_initial + 2 * batch_size)
-    budget = _positive("max_model_evaluations", budget)
+    if max_model_evaluations is None:
+        max_model_evaluations = max(15 * n_phys, n_initial + 2 * batch_size)
+    budget = _positive("max_model_evaluations", max_model_evaluations, minimum=0)
     n_walkers = int(n_walkers or max(24, 4 * dim))
     transform = model_transform(problem.model)
     rng = np.random.default_rng([seed, 29])
@@ -91,7 +92,11 @@ def run_emulator(
     n_reused = runs.theta_p.shape[0]
     trace = RunTrace(log_dir, step_key="round")
     rounds: list[dict[str, Any]] = []
-    batch = physical_columns(problem, design(plausible, min(n_initial, budget), seed))
+    # a budget below the design (e.g. 0: "use the runs in the store") skips the design when
+    # the store already holds enough runs to fit the emulator
+    n_design = n_initial if budget >= n_initial or n_reused < n_phys + 2 else 0
+    batch = physical_columns(problem, design(plausible, min(n_design, max(budget, n_phys + 2)),
+                                             seed))
     walkers = sampling.walkers_from(problem.sample_prior(20 * n_walkers, rng), n_walkers, rng)
     previous: EmulatedLogJoint | None = None
     prev_samples: np.ndarray | None = None
@@ -174,7 +179,8 @@ def _tensor(problem: Any, what: str) -> Any:
     return torch.as_tensor(np.asarray(getattr(m, what), dtype=np.float64))
 
 
-def _positive(name: str, value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise ValueError(f"method='emulator': {name} must be a positive integer, got {value!r}")
+def _positive(name: str, value: Any, minimum: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        what = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
+        raise ValueError(f"method='emulator': {name} must be {what}, got {value!r}")
     return int(value)
