@@ -1,7 +1,7 @@
 """Assemble the tables and figures of study B or C from the run folders of a sweep.
 
-    python scripts/collect_study.py runs/study_b/<stamp> --study b
-    python scripts/collect_study.py runs/study_c/<stamp> --study c
+    python studies/collect_study.py runs/study_b/<stamp> --study b
+    python studies/collect_study.py runs/study_c/<stamp> --study c
 
 Reads every run folder (``run.json``, ``posterior.nc``, and the run's evaluation store
 ``evaluations.sqlite``), computes what the runs did not record (the KL divergence of Eq. 19 from
@@ -29,8 +29,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import torchshm  # noqa: E402
+import study_tables as study  # noqa: E402  (beside this file)
 from torchshm.predictive import kl_divergence, posterior_predictive  # noqa: E402
-from torchshm.predictive import study  # noqa: E402
 
 KERNEL_ORDER = ["independent", "exponential", "matern32", "matern52", "squared_exponential"]
 STORE_NAME = "evaluations.sqlite"
@@ -232,7 +232,7 @@ def run_sweep(name: str, overrides: list[str], argv: list[str] | None) -> None:
     parser.add_argument("--out", type=Path, default=None)
     args, extra = parser.parse_known_args(argv)
     out = args.out or Path("runs") / f"study_{name}" / time.strftime("%Y-%m-%d_%H-%M-%S")
-    command = [sys.executable, str(Path(__file__).with_name("identify.py")), "-m", *overrides,
+    command = [sys.executable, str(Path(__file__).resolve().parents[1] / "scripts" / "identify.py"), "-m", *overrides,
                "hydra/launcher=joblib", f"hydra.launcher.n_jobs={args.n_jobs}", f"hydra.sweep.dir={out}",
                f"store=${{hydra:runtime.output_dir}}/{STORE_NAME}",
                "hydra.job.config.override_dirname.exclude_keys=[store,data.loads,predict.loads]", *extra]

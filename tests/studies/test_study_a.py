@@ -1,4 +1,4 @@
-"""``scripts/study_a.py`` with tiny budgets writes Table 5, Figs. 4-6 and its numbers."""
+"""``studies/study_a.py`` with tiny budgets writes Table 5, Figs. 4-6 and its numbers."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ def test_study_a_smoke(tmp_path: Path) -> None:
     args = ["--out", "runs/study_a", "--vbmc-max-fun-evals", "15", "--emcee-walkers", "8",
             "--emcee-steps", "40", "--window", "80", "resolution=4"]
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    result = subprocess.run([sys.executable, str(REPO / "scripts" / "study_a.py"), *args], cwd=tmp_path,
+    result = subprocess.run([sys.executable, str(REPO / "studies" / "study_a.py"), *args], cwd=tmp_path,
                             env=env, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr[-2000:]
     out = tmp_path / "runs" / "study_a"
@@ -38,7 +38,7 @@ def test_study_a_smoke(tmp_path: Path) -> None:
 
 
 def test_study_a_bad_override_is_one_line(tmp_path: Path) -> None:
-    result = subprocess.run([sys.executable, str(REPO / "scripts" / "study_a.py"), "kernel=foo"],
+    result = subprocess.run([sys.executable, str(REPO / "studies" / "study_a.py"), "kernel=foo"],
                             cwd=tmp_path, capture_output=True, text=True, timeout=120,
                             env={k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"})
     assert result.returncode == 2

@@ -23,14 +23,14 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from torchshm.cli import plots
-from torchshm.cli.convergence import (
+from convergence import (
     MarginalComparison,
     compare_marginals,
     half_chain_means,
     stabilisation_point,
     window_stats,
 )
+from torchshm.cli import plots
 from torchshm.cli.outputs import history_traces, truths_of
 
 UNITS = {"E_c": "GPa", "log10_K_r": "log10 N·mm/rad", "sigma_a": "µε", "length": "m"}

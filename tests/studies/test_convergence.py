@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from torchshm.cli.convergence import compare_marginals, half_chain_means, stabilisation_point, window_stats
+from convergence import compare_marginals, half_chain_means, stabilisation_point, window_stats
 
 
 def step_chain(steps: int = 10, walkers: int = 4, dim: int = 2) -> np.ndarray:

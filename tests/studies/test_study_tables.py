@@ -1,4 +1,4 @@
-"""Study tables from run folders (run.json as the torchshm-identify application writes it)."""
+"""Study tables from the run folders of a sweep (studies/study_tables.py)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from torchshm.predictive import study
+import study_tables as study
 
 
 def write_run(folder: Path, kernel: str, resolution: float, elbo: float, rows: list[dict], kl: float | None = None) -> None:
