@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import resource
 import shutil
 import signal
 import subprocess
@@ -19,6 +20,7 @@ import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -26,6 +28,11 @@ from torch import Tensor
 
 from torchshm.forward.files import LOG_FILE, PARAMS_FILE, read_strains, write_params
 from torchshm.forward.protocol import as_tensor
+
+
+#: default largest file a run may write [bytes] (strains of 100 load cases x 100,000 sensors
+#: as CSV take about 0.3 GiB)
+DEFAULT_MAX_OUTPUT_BYTES = 1 << 30
 
 
 class ExternalModelError(RuntimeError):
@@ -51,10 +58,20 @@ class ExternalModel:
             output name, parameter names, x and loads.
         keep_workdirs: keep the folders of successful runs (failed ones are always kept).
         kill_grace: seconds between SIGTERM and SIGKILL when a run times out.
+        max_output_bytes: largest file a run may write (its strain file and log included),
+            enforced on the program by the operating system (``RLIMIT_FSIZE``: a write past it
+            stops the program) and checked before the strain file is read; None: no limit.
+
+    Security: parameters reach the program only through ``params.json`` and the environment,
+    never through a command line or a shell (a string ``command`` is the user's own shell
+    line, run as written); each run's current directory is its own work folder, and a strain
+    file that is a link or lies outside that folder is refused. Strain files are read without
+    pickle (``np.load(allow_pickle=False)``, CSV as text).
 
     Raises:
         ValueError: on an empty command, non-finite or non-1-D ``x``/``loads``, a
-            non-positive timeout or an output name that is not ``.npz``/``.csv``.
+            non-positive timeout or output limit, or an output name that is not
+            ``.npz``/``.csv``.
     """
 
     def __init__(
@@ -70,6 +87,7 @@ class ExternalModel:
         identity: str | None = None,
         keep_workdirs: bool = True,
         kill_grace: float = 5.0,
+        max_output_bytes: int | None = DEFAULT_MAX_OUTPUT_BYTES,
     ) -> None:
         self.command = _check_command(command)
         self.x, self.loads = _check_axis(x, "x"), _check_axis(loads, "loads")
@@ -82,6 +100,12 @@ class ExternalModel:
         self.workdir = base.expanduser().resolve()
         self.names = None if names is None else [str(name) for name in names]
         self.keep_workdirs, self.kill_grace = keep_workdirs, float(kill_grace)
+        if max_output_bytes is not None and (
+            isinstance(max_output_bytes, bool) or not isinstance(max_output_bytes, int)
+            or max_output_bytes <= 0
+        ):
+            raise ValueError(f"max_output_bytes must be a positive integer or None, got {max_output_bytes!r}")
+        self.max_output_bytes = max_output_bytes
         self.identity = identity if identity is not None else self._default_identity()
 
     def __repr__(self) -> str:
@@ -112,12 +136,34 @@ class ExternalModel:
         write_params(folder / PARAMS_FILE, theta, names, self.x.numpy(), self.loads.numpy())
         self._execute(folder)
         try:
-            strain = read_strains(folder / self.output, self.x.numpy(), self.loads.numpy())
+            strain = read_strains(self._output_file(folder), self.x.numpy(), self.loads.numpy())
         except ValueError as exc:
             raise ExternalModelError(f"{exc} (work folder {folder})") from None
         if not self.keep_workdirs:
             shutil.rmtree(folder, ignore_errors=True)
         return strain
+
+    def _hit_size_limit(self, folder: Path) -> bool:
+        """Whether a file in the run's folder reached ``max_output_bytes`` (the system refuses
+        writes past it: the program gets SIGXFSZ, or an error where it ignores the signal)."""
+        limit = self.max_output_bytes
+        return limit is not None and any(
+            path.is_file() and path.stat().st_size >= limit for path in folder.rglob("*")
+        )
+
+    def _output_file(self, folder: Path) -> Path:
+        """The run's strain file, checked to be a regular file inside ``folder`` within the
+        size limit (``ValueError`` otherwise)."""
+        path = folder / self.output
+        if path.is_symlink() or (path.exists() and path.resolve().parent != folder.resolve()):
+            raise ValueError(f"strain file {path} is a link; a run may only write inside its work folder")
+        if path.is_file() and self.max_output_bytes is not None:
+            size = path.stat().st_size
+            if size > self.max_output_bytes:
+                raise ValueError(
+                    f"strain file {path} has {size} bytes, over max_output_bytes={self.max_output_bytes}"
+                )
+        return path
 
     def _execute(self, folder: Path) -> None:
         """Run the command in ``folder``, output to run.log, and check how it ended."""
@@ -129,6 +175,7 @@ class ExternalModel:
                 process = subprocess.Popen(
                     self.command, cwd=folder, stdout=log, stderr=subprocess.STDOUT,
                     stdin=subprocess.DEVNULL, shell=shell, env=env, start_new_session=True,
+                    preexec_fn=_file_size_limit(self.max_output_bytes),
                 )
             except OSError as exc:
                 raise ExternalModelError(f"cannot start {self.command!r}: {exc}") from None
@@ -143,6 +190,11 @@ class ExternalModel:
             finally:
                 if process.poll() is None:  # interrupted while waiting: leave no orphan run
                     _kill_group(process, self.kill_grace)
+        if status != 0 and (status == -signal.SIGXFSZ or self._hit_size_limit(folder)):
+            raise ExternalModelError(
+                f"program stopped for writing a file over max_output_bytes="
+                f"{self.max_output_bytes} (work folder {folder})"
+            )
         if status != 0:
             raise ExternalModelError(
                 f"program exited with status {status} (work folder {folder}); "
@@ -161,6 +213,17 @@ class ExternalModel:
         digest.update(self.x.numpy().tobytes())
         digest.update(self.loads.numpy().tobytes())
         return f"ExternalModel-{digest.hexdigest()[:16]}"
+
+
+def _file_size_limit(limit: int | None) -> Any:
+    """A ``preexec_fn`` capping the size of any file the program writes at ``limit`` bytes."""
+    if limit is None:
+        return None
+
+    def apply() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    return apply
 
 
 def _check_command(command: str | Sequence[str]) -> str | list[str]:
