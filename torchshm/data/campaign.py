@@ -101,7 +101,7 @@ def campaign_truth(path: str | Path | None = None) -> CampaignTruth:
     return CampaignTruth(truth.x.copy(), truth.loads.copy(), truth.strain.copy(), dict(truth.attrs))
 
 
-def synthetic_campaign(seed: int = 0, path: str | Path | None = None) -> Measurements:
+def synthetic_campaign(seed: int = 0, path: str | Path | None = None, pitch: float | None = None) -> Measurements:
     """Synthetic fibre measurements of bridge 705: 12 load cases at 0.1 m pitch (35–70 m).
 
     ``y = strain_truth + offset_l + e``, with one offset ``offset_l ~ N(0, offset_sd²)`` per
@@ -111,12 +111,18 @@ def synthetic_campaign(seed: int = 0, path: str | Path | None = None) -> Measure
     Args:
         seed: seed of the noise; the same seed gives identical measurements in every process.
         path: a campaign file; defaults to the shipped ``bridge705_campaign.nc``.
+        pitch: spacing of the readings [m]. ``None`` (or the file's own pitch) reads the file;
+            another pitch (e.g. 0.005) computes the same truth structure's gauge-averaged
+            strains at every ``pitch`` from 35 to 70 m (:func:`dense_truth`, cached per
+            pitch in this process), with the file's noise levels and truth parameters.
 
     Returns:
         Measurements `L x n` [µε] with ``sigma_e`` from the file and the truth parameters in
         ``attrs`` (``truth_E_c`` [GPa], ``truth_log10_K_r``).
     """
     truth = campaign_truth(path)
+    if pitch is not None and not np.isclose(pitch, np.median(np.diff(truth.x)), rtol=1e-9, atol=0.0):
+        truth = dense_truth(float(pitch), truth)
     rng = np.random.default_rng(seed)
     offsets = rng.normal(0.0, truth.offset_sd, size=(truth.loads.size, 1))
     noise = rng.normal(0.0, truth.sigma_e, size=truth.strain.shape)
@@ -129,6 +135,43 @@ def synthetic_campaign(seed: int = 0, path: str | Path | None = None) -> Measure
     }
     y = truth.strain + offsets + noise
     return Measurements(truth.x, y, truth.loads, sigma_e=truth.sigma_e, attrs=attrs)
+
+
+def dense_truth(pitch: float, shipped: CampaignTruth) -> CampaignTruth:
+    """The shipped campaign's truth at another reading pitch [m] (computed, not resampled).
+
+    The truth structure is :class:`~torchshm.physics.truth.TruthConfig` with the fibre
+    positions at ``pitch``; its parameters must be those the file was made with (checked).
+
+    Raises:
+        ValueError: for a pitch that is not a positive number, or a file made for other
+            truth parameters.
+    """
+    if not isinstance(pitch, float) or not np.isfinite(pitch) or pitch <= 0:
+        raise ValueError(f"synthetic_campaign: pitch must be a positive number of metres, got {pitch!r}")
+    from torchshm.physics.truth import TruthConfig
+
+    default = TruthConfig()
+    made_for = (float(shipped.attrs["truth_E_c"]), float(shipped.attrs["truth_log10_K_r"]))
+    if made_for != (default.E_c, default.log10_K_r):
+        raise ValueError(f"synthetic_campaign: pitch= needs the shipped truth, this file has {made_for}")
+    x, strain = _dense_strain(pitch)
+    return CampaignTruth(x.copy(), shipped.loads.copy(), strain.copy(), dict(shipped.attrs))
+
+
+@lru_cache(maxsize=4)
+def _dense_strain(pitch: float) -> tuple[np.ndarray, np.ndarray]:
+    import dataclasses
+
+    from torchshm.physics.truth import TruthConfig, truth_strains
+
+    default = TruthConfig()
+    config = dataclasses.replace(default, model=dataclasses.replace(default.model, sensor_pitch=pitch))
+    strain = truth_strains(config).numpy()
+    strain.setflags(write=False)
+    x = config.model.sensor_x()
+    x.setflags(write=False)
+    return x, strain
 
 
 def discrepancy_summary(discrepancy: np.ndarray, pitch: float) -> tuple[float, float]:

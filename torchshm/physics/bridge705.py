@@ -18,6 +18,7 @@ so K_r → ∞ (fixed bases, 1 / κ → 0) and K_r → 0 (hinged bases, 1 / κ �
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from functools import lru_cache
 
@@ -32,6 +33,9 @@ from torchshm.physics.geometry import BridgeMesh, PierBase, build_mesh
 
 #: formulation tag, part of the model identity (change it when the strains would change)
 FORMULATION = "frame-woodbury-v1"
+
+#: sensor positions whose strain operator is formed at once (a dense `chunk x n_dof` block)
+_SENSOR_CHUNK = 4096
 
 #: largest log(1/κ) used; beyond it the pier springs contribute below double precision
 _MAX_LOG_INV_KAPPA = 600.0
@@ -77,8 +81,12 @@ def _operators(config: Bridge705Config) -> tuple[Tensor, Tensor, Tensor, Tensor]
     factor = torch.linalg.cholesky(reduced_stiffness(mesh.frame))
     solution = torch.cholesky_solve(torch.cat([F, P], dim=1), factor)
     K0_inv_F, K0_inv_P = solution[:, : F.shape[1]], solution[:, F.shape[1] :]
-    B = mesh.strain_operator(config.sensor_x(), config.deck.c_b)[:, free]
-    return B @ K0_inv_F, B @ K0_inv_P, K0_inv_P[springs], K0_inv_F[springs]
+    sensors, S0, G = config.sensor_x(), [], []
+    for start in range(0, sensors.size, _SENSOR_CHUNK):  # bounded memory at dense pitches
+        B = mesh.strain_operator(sensors[start : start + _SENSOR_CHUNK], config.deck.c_b)[:, free]
+        S0.append(B @ K0_inv_F)
+        G.append(B @ K0_inv_P)
+    return torch.cat(S0), torch.cat(G), K0_inv_P[springs], K0_inv_F[springs]
 
 
 class Bridge705:
@@ -134,10 +142,22 @@ class Bridge705:
         return f"Bridge705({self.loads.numel()} load cases, {self.x.numel()} sensors, {self.identity})"
 
 
-def bridge705(config: Bridge705Config | None = None) -> Bridge705:
+def bridge705(config: Bridge705Config | None = None, pitch: float | None = None) -> Bridge705:
     """The finite element model of bridge 705 (see :class:`Bridge705`).
 
     Args:
         config: dimensions, sensors and load cases; defaults to ``Bridge705Config()``.
+        pitch: spacing of the fibre sensor points [m] (e.g. 0.005 for about 7,000 points per
+            load case); replaces ``config.sensor_pitch``. The strain at each point comes from
+            its element's own (Hermite) interpolation, on the same 0.1 m mesh. ``None`` keeps
+            the configuration's (0.1 m by default: the model and its identity are unchanged).
+
+    Raises:
+        ValueError: for a pitch that is not a positive number.
     """
+    config = config or Bridge705Config()
+    if pitch is not None:
+        if not isinstance(pitch, (int, float)) or not math.isfinite(pitch) or pitch <= 0:
+            raise ValueError(f"bridge705: pitch must be a positive number of metres, got {pitch!r}")
+        config = dataclasses.replace(config, sensor_pitch=float(pitch))
     return Bridge705(config)

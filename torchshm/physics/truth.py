@@ -227,8 +227,46 @@ def truth_strains(config: TruthConfig | None = None) -> Tensor:
     U = solve(mesh.frame, F)
     if config.gauge_length <= 0.0:
         return 1e6 * (mesh.strain_operator(model.sensor_x(), c_b) @ U).T
+    if not gauge_on_nodes(mesh.deck_x, model.sensor_x(), config.gauge_length):
+        return 1e6 * gauge_average(mesh, U, c_b, model.sensor_x(), config.gauge_length).T
     n_el = mesh.deck_x.size - 1
     element = torch.arange(n_el)
     mid_strain = bottom_strain(mesh.frame, U, element, torch.full((n_el,), 0.5), torch.as_tensor(c_b))
     W = torch.as_tensor(gauge_weights(mesh.deck_x, model.sensor_x(), config.gauge_length))
     return 1e6 * (W @ mid_strain).T
+
+
+def gauge_on_nodes(deck_x: np.ndarray, sensor_x: np.ndarray, gauge: float) -> bool:
+    """Whether both ends of every gauge fall on mesh nodes (to 1e-6 m)."""
+    ends = np.concatenate([sensor_x - gauge / 2, sensor_x + gauge / 2])
+    index = np.clip(np.searchsorted(deck_x, ends), 1, deck_x.size - 1)
+    gap = np.minimum(np.abs(deck_x[index] - ends), np.abs(deck_x[index - 1] - ends))
+    return bool(np.all(gap <= 1e-6))
+
+
+def gauge_average(mesh: BridgeMesh, U: Tensor, c_b: np.ndarray, sensor_x: np.ndarray, gauge: float) -> Tensor:
+    """Bottom-fibre strain `n x k` averaged over a gauge around each of `n` sensor positions [m],
+    for gauges whose ends fall anywhere (any sensor pitch).
+
+    The strain is linear within an element, so its integral over the part of an element inside
+    the gauge is that part's length times the strain at its midpoint: the average is exact.
+    """
+    x = mesh.deck_x
+    lo, hi = sensor_x - gauge / 2, sensor_x + gauge / 2
+    first = np.clip(np.searchsorted(x, lo, side="right") - 1, 0, x.size - 2)
+    span = int(np.max(np.searchsorted(x, hi, side="left") - first)) + 1
+    element = np.minimum(first[:, None] + np.arange(span)[None, :], x.size - 2)  # n x span
+    start = np.maximum(x[element], lo[:, None])
+    end = np.minimum(x[element + 1], hi[:, None])
+    inside = np.clip(end - start, 0.0, None)
+    inside[:, 1:] *= element[:, 1:] != element[:, :-1]  # an element counted once
+    xi = (0.5 * (start + end) - x[element]) / (x[element + 1] - x[element])
+    strain = bottom_strain(
+        mesh.frame,
+        U,
+        torch.as_tensor(element.ravel()),
+        torch.as_tensor(np.clip(xi, 0.0, 1.0).ravel()),
+        torch.as_tensor(c_b[element.ravel()]),
+    )
+    weights = torch.as_tensor(inside / gauge).reshape(-1, 1)
+    return (strain * weights).reshape(*element.shape, -1).sum(1)
