@@ -56,7 +56,7 @@ def load_data(data: DataConfig, base: Path) -> Any:
     import torchshm
 
     if data.path is None:
-        measurements = torchshm.synthetic_campaign(seed=data.campaign_seed)
+        measurements = torchshm.synthetic_campaign(seed=data.campaign_seed, pitch=data.pitch)
     else:
         measurements = torchshm.load_measurements(resolve_path(data.path, base))
     if data.resolution is None:

@@ -173,6 +173,7 @@ class DataConfig:
     campaign_seed: int = 0
     loads: List[float] = field(default_factory=lambda: [39.8])  # front-axle positions [m]
     resolution: Optional[float] = 0.1  # spacing of kept positions [m] (group resolution/); None: all
+    pitch: Optional[float] = None  # reading pitch of the synthetic campaign [m]; None: shipped 0.1 m
 
 
 @dataclass

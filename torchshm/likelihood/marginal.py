@@ -152,8 +152,8 @@ class Eq21:
 
         Standard normals come from ``generator`` in a fixed order: `B x L x n` for the
         multiplicative term, then for the dense and diagonal forms `B x L x n` multiplied by the
-        factor of ``K + sigma_e**2 I``, for the state space `B x L x n x p` process noise and
-        `B x L x n` measurement noise.
+        factor of ``K + sigma_e**2 I``; for the state space, per chunk of responses, `b x L x n x p`
+        process noise (along sorted positions) and `b x L x n` measurement noise.
 
         Raises:
             ValueError: if a dense discrepancy covariance is not positive definite.
@@ -162,13 +162,16 @@ class Eq21:
         z1 = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
         out = eta + self.sigma_m * eta * z1
         if self.method == "state_space":
-            p = self.kern.state_dim
-            z = torch.randn((*eta.shape, p), generator=generator, dtype=torch.float64).to(eta.device)
-            e = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
-            order = self._order()
-            f = torch.empty_like(eta)
-            f[..., order] = statespace.sample(x[order], self.kern, self.sigma_a, self.length, z)
-            return out + f + self.sigma_e * e
+            p, order = self.kern.state_dim, self._order()
+            step = max(1, SAMPLE_CHUNK_BYTES * 8 // (eta[0].numel() * (p + 1) * 8))
+            for start in range(0, eta.shape[0], step):
+                part = slice(start, start + step)
+                shape = eta[part].shape
+                z = torch.randn((*shape, p), generator=generator, dtype=torch.float64).to(eta.device)
+                e = torch.randn(shape, generator=generator, dtype=torch.float64).to(eta.device)
+                f = statespace.sample(x[order], self.kern, self.sigma_a[part], self.length[part], z)
+                out[part][..., order] += f + self.sigma_e * e[..., order]
+            return out
         z2 = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
         if self.method == "diagonal":
             sd = (self.kern.diag(x, sigma_a=self.sigma_a) + self.sigma_e**2).sqrt()  # B x n
