@@ -17,6 +17,7 @@ from typing import Any
 from torchshm.config import Config, DataConfig, build_priors, method_options, parameter_labels
 from torchshm.cli import outputs
 from torchshm.cli.models import instantiate_model, with_executor
+from torchshm.forward.parallel import ParallelModel
 
 log = logging.getLogger(__name__)
 
@@ -137,7 +138,7 @@ def prepare_job(settings: Config, base: Path) -> PreparedJob:
     model = build_model(settings, base)
     problem = build_problem(settings, model, measurements, base, priors)
     _check_method_options(settings, len(problem.names))
-    labels = parameter_labels(settings.priors, getattr(model, "model", model))
+    labels = parameter_labels(settings.priors, model.model if isinstance(model, ParallelModel) else model)
     return PreparedJob(settings, problem, measurements, held_out, t0, labels)
 
 
