@@ -11,7 +11,7 @@ digits) in both. A failing run is recorded with its error text, never raised.
 from __future__ import annotations
 
 from os import PathLike
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -20,8 +20,11 @@ from torch import Tensor
 from torchshm.forward.protocol import as_tensor
 from torchshm.storage.evaluate import evaluate
 from torchshm.storage.keys import key_theta
-from torchshm.storage.record import check_outputs, error_text
+from torchshm.storage.record import check_dtype, check_outputs, error_text
 from torchshm.storage.store import EvaluationStore
+
+if TYPE_CHECKING:
+    from torchshm.forward.protocol import ForwardModel
 
 
 class MemoryBackend:
@@ -53,13 +56,15 @@ class MemoryBackend:
         self._outputs[key] = output.detach()
 
     def evaluate(
-        self, model: Any, rows: Tensor, keys: list[str], shape: tuple[int, int]
+        self, model: ForwardModel, rows: Tensor, keys: list[str], shape: tuple[int, int]
     ) -> int:
         """Run the model for parameter vectors ``rows`` (`U x P`, keys ``keys``) and keep the
         outcomes. Returns the number of model calls (vectors sent to the model)."""
         try:
             with torch.no_grad():
-                out = as_tensor(model(rows))
+                raw = model(rows)
+            check_dtype(raw)
+            out = as_tensor(raw)
             if tuple(out.shape) != (rows.shape[0], *shape):
                 raise ValueError(
                     f"model output has shape {tuple(out.shape)} for {rows.shape[0]} parameter "
@@ -76,7 +81,7 @@ class MemoryBackend:
             self._keep(key, lambda row=row: check_outputs(row, shape))
         return rows.shape[0]
 
-    def _run_one(self, model: Any, row: Tensor, key: str, shape: tuple[int, int]) -> None:
+    def _run_one(self, model: ForwardModel, row: Tensor, key: str, shape: tuple[int, int]) -> None:
         """Run one vector `1 x P` and keep its output or its error text."""
 
         def run() -> np.ndarray:
@@ -92,14 +97,14 @@ class MemoryBackend:
         except Exception as exc:  # a failing model run is data, not a crash
             self._errors[key] = error_text(exc)
 
-    def all(self, model: Any, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    def all(self, model: ForwardModel, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
         """``(theta_p `M x P`, outputs `M x L x n`)`` of every finished evaluation."""
         if not self._outputs:
             return np.empty((0, 0)), np.empty((0, *shape))
         theta = np.stack([key_theta(k) for k in self._outputs])
         return theta, np.stack([o.numpy() for o in self._outputs.values()]).astype(np.float64)
 
-    def failures(self, model: Any) -> tuple[np.ndarray, list[str]]:
+    def failures(self, model: ForwardModel) -> tuple[np.ndarray, list[str]]:
         """Failed evaluations: parameters `F x P` and their error texts, oldest first."""
         if not self._errors:
             return np.empty((0, 0)), []
@@ -124,7 +129,7 @@ class StoreBackend(MemoryBackend):
         self.store = store if isinstance(store, EvaluationStore) else EvaluationStore(store)
 
     def evaluate(
-        self, model: Any, rows: Tensor, keys: list[str], shape: tuple[int, int]
+        self, model: ForwardModel, rows: Tensor, keys: list[str], shape: tuple[int, int]
     ) -> int:
         """As :meth:`MemoryBackend.evaluate`, through the store (failed runs are not cached in
         this process, so a later call asks the store again)."""
@@ -141,13 +146,13 @@ class StoreBackend(MemoryBackend):
         """Outputs read before in this process; failures are asked for again (see above)."""
         return {k: self._outputs[k] for k in keys if k in self._outputs}, set()
 
-    def all(self, model: Any, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    def all(self, model: ForwardModel, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
         """Every finished evaluation of ``model`` in the store (other processes' included)."""
         assert self.store is not None
         theta, outputs = self.store.all(model)
         return theta, np.asarray(outputs, dtype=np.float64).reshape(-1, *shape)
 
-    def failures(self, model: Any) -> tuple[np.ndarray, list[str]]:
+    def failures(self, model: ForwardModel) -> tuple[np.ndarray, list[str]]:
         """Failed evaluations of ``model`` in the store, oldest first."""
         assert self.store is not None
         return self.store.failures(model)

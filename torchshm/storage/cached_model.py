@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from os import PathLike
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
@@ -20,7 +20,11 @@ from torch import Tensor
 from torchshm.forward.protocol import as_tensor, output_shape
 from torchshm.storage.cache import MemoryBackend, open_backend
 from torchshm.storage.keys import canonical_theta, theta_key
+from torchshm.storage.record import check_dtype
 from torchshm.storage.store import EvaluationStore
+
+if TYPE_CHECKING:
+    from torchshm.forward.protocol import ForwardModel
 
 
 class CachedModel:
@@ -39,7 +43,7 @@ class CachedModel:
     """
 
     def __init__(
-        self, model: Any, store: str | PathLike[str] | EvaluationStore | MemoryBackend | None = None
+        self, model: ForwardModel, store: str | PathLike[str] | EvaluationStore | MemoryBackend | None = None
     ) -> None:
         self.model = model
         self.shape = output_shape(model)
@@ -90,7 +94,9 @@ class CachedModel:
         vectors then go through the backend, which records the failure)."""
         rows = flat[[first[k] for k in unique]]
         try:
-            out = as_tensor(self.model(rows))
+            raw = self.model(rows)
+            check_dtype(raw)
+            out = as_tensor(raw)
         except Exception:  # recorded by the backend on the no-grad path
             return None
         self.n_evaluations += rows.shape[0]

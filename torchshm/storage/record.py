@@ -16,11 +16,14 @@ import time
 import traceback
 from dataclasses import dataclass
 from datetime import datetime, timezone
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
 from torch import Tensor
+
+if TYPE_CHECKING:
+    from torchshm.forward.protocol import ForwardModel
 
 logger = logging.getLogger(__name__)
 
@@ -91,8 +94,10 @@ def check_outputs(raw: object, shape: tuple[int, int]) -> np.ndarray:
         shape: the expected `(L_model, n_model)`.
 
     Raises:
-        ValueError: on a wrong shape or on NaN or inf values (the message counts them).
+        ValueError: on a wrong shape or dtype (complex, bool, text) or on NaN or inf values
+            (the message counts them).
     """
+    check_dtype(raw)
     if isinstance(raw, Tensor):
         raw = raw.detach().cpu().numpy()
     outputs = np.asarray(raw, dtype=np.float64)
@@ -109,6 +114,22 @@ def check_outputs(raw: object, shape: tuple[int, int]) -> np.ndarray:
     return np.ascontiguousarray(outputs)
 
 
+def check_dtype(raw: object) -> None:
+    """Refuse a model output whose dtype is not real numbers: converting a complex output to
+    float64 would silently drop its imaginary part, a bool or text one is no strain.
+
+    Raises:
+        ValueError: naming the dtype.
+    """
+    dtype = raw.dtype if isinstance(raw, (Tensor, np.ndarray)) else None
+    if isinstance(raw, Tensor):
+        bad = raw.is_complex() or dtype == torch.bool
+    else:
+        bad = dtype is not None and dtype.kind not in "fiu"
+    if bad:
+        raise ValueError(f"model output has dtype {dtype}; expected real numbers (float64)")
+
+
 def error_text(exc: BaseException) -> str:
     """``"TypeName: message"`` of an exception."""
     message = str(exc).strip()
@@ -121,7 +142,7 @@ def now_utc() -> str:
 
 
 def run_model(
-    model: Any, identity: str, key: str, theta: np.ndarray, shape: tuple[int, int]
+    model: ForwardModel, identity: str, key: str, theta: np.ndarray, shape: tuple[int, int]
 ) -> Record:
     """Call a forward model once and record the outcome; never raises for a model failure.
 
