@@ -12,16 +12,29 @@ Kernel ``matern32``, sigma_m = 0.05, sigma_e = 0.1 µε, positions 35.0..70.0 m 
 Prints a markdown table of median wall times. The thread count of both numpy's BLAS and torch
 follows the environment (e.g. ``OMP_NUM_THREADS=1``).
 
+Then the O(n) state-space form (``docs/likelihood.md``):
+
+- crossover: dense and state-space times at n = 500 .. 3,000 points, 1 and 12 load cases;
+- n = 10^5 points x 12 load cases, one parameter vector, the three Markov kernels, beside
+  celerite2's exact exponential kernel (``RealTerm``) on the same positions, residuals and
+  heteroscedastic diagonals (celerite2 is a benchmark-only dependency, imported only here);
+- n = 10^3 .. 10^6 in one load case (``matern32``): time and peak memory growth (peak resident
+  set during the call minus the resident set before it), each size in a fresh subprocess.
+
 Usage::
 
-    python scripts/bench_likelihood.py [--repeats 20] [--slow-repeats 3] [--seed 0]
+    python scripts/bench_likelihood.py [--repeats 20] [--slow-repeats 3] [--seed 0] [--only-dense]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import platform
+import resource
 import statistics
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -119,12 +132,103 @@ def bench_size(label: str, n_loads: int, args: argparse.Namespace) -> list[Row]:
     return rows
 
 
+def dense_data(n: int, n_loads: int, seed: int) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Positions (35..70 m, irregular), measurements `L x n` and model responses `L x n`."""
+    rng = np.random.default_rng(seed)
+    x = np.sort(rng.uniform(35.0, 70.0, n))
+    eta = 50.0 * np.sin(x[None, :] / 3.0 + rng.uniform(0, 6, (n_loads, 1)))
+    y = eta + rng.normal(0.0, 1.0, eta.shape)
+    return torch.as_tensor(x), torch.as_tensor(y), torch.as_tensor(eta)
+
+
+def crossover(args: argparse.Namespace) -> None:
+    """Dense vs state-space `torchshm.log_likelihood`, one parameter vector (matern32)."""
+    print("\n| points per load case | load cases | dense [ms] | state space [ms] |")
+    print("| ---: | ---: | ---: | ---: |")
+    for n_loads in (1, 12):
+        for n in (500, 1000, 1500, 2000, 3000):
+            x, y, eta = dense_data(n, n_loads, args.seed)
+            times = []
+            for method in ("dense", "state_space"):
+                fn = lambda: torchshm.log_likelihood(y, eta, x, "matern32", SIGMA_A, LENGTH, SIGMA_M, SIGMA_E, method=method)  # noqa: E731,B023
+                times.append(median_seconds(fn, 3)[0])
+            print(f"| {n} | {n_loads} | {1e3 * times[0]:.4g} | {1e3 * times[1]:.4g} |")
+
+
+def against_celerite(args: argparse.Namespace, n: int = 100_000, n_loads: int = 12) -> None:
+    """n x 12 load cases, one parameter vector: the three kernels and celerite2's RealTerm."""
+    import celerite2  # benchmark-only dependency
+
+    x, y, eta = dense_data(n, n_loads, args.seed)
+    noise = (SIGMA_M**2 * eta.square() + SIGMA_E**2).numpy()
+    resid = (y - eta).numpy()
+
+    def celerite_exponential() -> float:
+        term = celerite2.terms.RealTerm(a=SIGMA_A**2, c=1.0 / LENGTH)
+        total = 0.0
+        for r_l, d_l in zip(resid, noise):
+            gp = celerite2.GaussianProcess(term, mean=0.0)
+            gp.compute(x.numpy(), diag=d_l, check_sorted=False)
+            total += gp.log_likelihood(r_l)
+        return total
+
+    wall_ref, cpu_ref, ref = median_seconds(celerite_exponential, args.slow_repeats)
+    print(f"\nn = {n:,} x {n_loads} load cases, one parameter vector (median of {args.slow_repeats}):\n")
+    print("| method | wall [s] | CPU [s] | ÷ celerite2 exponential, wall | value |")
+    print("| --- | ---: | ---: | ---: | ---: |")
+    print(f"| celerite2 `RealTerm` (exact exponential), C++ | {wall_ref:.3f} | {cpu_ref:.3f} | 1x | {ref:.6f} |")
+    for kernel in ("exponential", "matern32", "matern52"):
+        fn = lambda: torchshm.log_likelihood(y, eta, x, kernel, SIGMA_A, LENGTH, SIGMA_M, SIGMA_E)  # noqa: E731,B023
+        with torch.no_grad():
+            wall, cpu, value = median_seconds(fn, args.slow_repeats)
+        print(f"| `torchshm.log_likelihood`, {kernel} | {wall:.3f} | {cpu:.3f} | {wall / wall_ref:.2f}x | {float(value):.6f} |")
+
+
+def _rss_bytes() -> int:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def one_size(n: int, seed: int) -> None:
+    """(child process) time and peak memory growth of one call at n points, one load case."""
+    x, y, eta = dense_data(n, 1, seed)
+    before = _rss_bytes()
+    start = time.perf_counter()
+    with torch.no_grad():
+        torchshm.log_likelihood(y, eta, x, "matern32", SIGMA_A, LENGTH, SIGMA_M, SIGMA_E)
+    wall = time.perf_counter() - start
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    print(f"{wall} {max(0, peak - before)}")
+
+
+def scaling(args: argparse.Namespace) -> None:
+    """n = 10^3 .. 10^6, one load case, one fresh subprocess per size."""
+    print("\n| n (one load case, matern32) | wall [s] | peak memory growth [MB] | per point [µs] |")
+    print("| ---: | ---: | ---: | ---: |")
+    for n in (1_000, 10_000, 100_000, 1_000_000):
+        out = subprocess.run(
+            [sys.executable, __file__, "--one-size", str(n), "--seed", str(args.seed)],
+            check=True, capture_output=True, text=True,
+        ).stdout.split()
+        wall, grow = float(out[-2]), int(out[-1])
+        print(f"| {n:,} | {wall:.3f} | {grow / 2**20:.0f} | {1e6 * wall / n:.2f} |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--repeats", type=int, default=20, help="timed calls of the fast methods")
     parser.add_argument("--slow-repeats", type=int, default=3, help="timed calls of (a) and (b)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--only-dense", action="store_true", help="only the O(n) (dense fibre) part")
+    parser.add_argument("--one-size", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.one_size:
+        one_size(args.one_size, args.seed)
+        return
+    print(f"uptime: {os.getloadavg()} (1, 5, 15 min load averages)")
+    if args.only_dense:
+        dense_fibre(args)
+        return
     rows = bench_size("C1", 11, args) + bench_size("B", 1, args)
     print(
         f"torch {torch.__version__} ({torch.get_num_threads()} threads), numpy {np.__version__}, "
@@ -144,6 +248,17 @@ def main() -> None:
     for size, ref in naive.items():
         spread = max(abs(r.value - ref.value) / abs(ref.value) for r in rows if r.size == size)
         print(f"\n{size}: largest relative difference from (a)'s value: {spread:.1e}")
+
+
+    dense_fibre(args)
+
+
+def dense_fibre(args: argparse.Namespace) -> None:
+    """The O(n) part: crossover, 10^5 x 12 beside celerite2, scaling to 10^6."""
+    crossover(args)
+    against_celerite(args)
+    scaling(args)
+    print(f"\nuptime after: {os.getloadavg()}")
 
 
 if __name__ == "__main__":

@@ -34,7 +34,7 @@ from torchshm.likelihood.cholesky import cholesky_with_jitter
 
 LOG_2PI = math.log(2.0 * math.pi)
 #: points per load case from which ``method="auto"`` uses the state-space form (measured)
-STATE_SPACE_FROM = 1500
+STATE_SPACE_FROM = 1000
 #: largest dense covariance batch [bytes] built and factorised at once when sampling
 SAMPLE_CHUNK_BYTES = 2**21
 #: share of the physical memory that dense covariances may take before they are refused

@@ -65,7 +65,7 @@ def log_density(r: Tensor, noise: Tensor, x: Tensor, kern: Kernel, sigma_a: Tens
     B, L, n = r.shape
     F, Q, _ = _model(x, kern, sigma_a, length)  # B x n x p x p
     F = torch.cat([torch.zeros_like(F[:, :1]), F[:, 1:]], dim=1)  # the prior enters through Q_1
-    size = max(1, math.isqrt(4 * n))
+    size = max(1, math.isqrt(n // 4))
     blocks = -(-n // size)
     steps = _blocked(F, Q, r, noise, size, blocks)  # F, Q: size x p x p x G x B x 1; y, D: size x G x B x L
     starts = _block_starts(_block_elements(*steps), blocks)
@@ -74,11 +74,15 @@ def log_density(r: Tensor, noise: Tensor, x: Tensor, kern: Kernel, sigma_a: Tens
 
 def _mm(X: Tensor, Y: Tensor) -> Tensor:
     """Products of stacks of small matrices stored component first: `p x q x M` @ `q x r x M`."""
+    if X.shape[1] == 1:
+        return X * Y
     return (X[:, :, None] * Y[None]).sum(1)
 
 
 def _mv(X: Tensor, v: Tensor) -> Tensor:
     """`p x q x M` matrices times `q x M` vectors."""
+    if X.shape[1] == 1:
+        return X[:, 0] * v
     return (X * v[None]).sum(1)
 
 
