@@ -17,7 +17,7 @@ from tests.cli.conftest import CONSOLE_SCRIPT, REPO, run_cli
 
 pytestmark = pytest.mark.slow
 
-BUDGET = ["method.max_fun_evals=15", "method.n_samples=2000", "data.resolution=2", "predict.n=200"]
+BUDGET = ["method.max_fun_evals=20", "method.n_samples=2000", "data.resolution=2", "predict.n=200"]
 OUTPUTS = ("posterior.nc", "summary.csv", "corner.png", "elbo.png", "trace.png", "predictive.csv",
            "predictive.png", "run.json", "identify.log")
 

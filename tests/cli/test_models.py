@@ -34,3 +34,15 @@ def test_bad_model_config_is_one_line(tmp_path: Path, spec: dict, fragment: str)
         instantiate_model(spec, tmp_path)
     message = str(info.value)
     assert message.startswith("model:") and fragment in message and "\n" not in message
+
+
+def test_external_program_from_its_config(tmp_path: Path) -> None:
+    import torchshm
+
+    spec = {"_target_": "torchshm.ExternalModel", "command": ["python", "/abs/run_fe.py"],
+            "x": [0.0, 0.5, 1.0], "loads": [10.0, 20.0], "timeout": 600, "output": "strains.csv",
+            "names": ["E", "k"], "workdir": str(tmp_path / "fe_runs")}
+    model = instantiate_model(spec, tmp_path)
+    assert isinstance(model, torchshm.ExternalModel)
+    assert model.timeout == 600 and model.output == "strains.csv" and list(model.names) == ["E", "k"]
+    assert model.x.tolist() == [0.0, 0.5, 1.0] and model.loads.tolist() == [10.0, 20.0]
