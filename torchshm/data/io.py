@@ -34,11 +34,16 @@ def load(path: Path) -> Measurements:
     if not path.is_file():
         raise FileNotFoundError(f"measurement file not found: {path}")
     suffix = path.suffix.lower()
-    if suffix == ".csv":
-        return _load_csv(path)
-    if suffix == ".nc":
-        return _load_nc(path)
-    raise ValueError(f"unknown measurement file type {suffix!r} of {path} (use .csv or .nc)")
+    if suffix not in (".csv", ".nc"):
+        raise ValueError(f"unknown measurement file type {suffix!r} of {path} (use .csv or .nc)")
+    try:
+        return _load_csv(path) if suffix == ".csv" else _load_nc(path)
+    except UnicodeDecodeError as err:
+        raise ValueError(f"{path}: not a text file ({err.reason} at byte {err.start})") from None
+    except ValueError as err:  # e.g. from Measurements: say which file
+        if str(path) in str(err):
+            raise
+        raise ValueError(f"{path}: {err}") from None
 
 
 def _save_csv(m: Measurements, path: Path) -> None:

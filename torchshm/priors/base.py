@@ -9,6 +9,7 @@ differentiated; numpy in gives numpy out.
 from __future__ import annotations
 
 import math
+import numbers
 from abc import ABC, abstractmethod
 
 import numpy as np
@@ -50,6 +51,8 @@ class Prior(ABC):
         if plausible is None:
             plausible = tuple(float(q) for q in self.ppf(np.asarray(PLAUSIBLE_QUANTILES)))
         plo, phi = bounds_pair(f"{self!r} plausible bounds", plausible)
+        if not (math.isfinite(plo) and math.isfinite(phi)):
+            raise ValueError(f"{self!r}: plausible bounds {(plo, phi)} must be finite")
         if plo < lo or phi > hi:
             raise ValueError(
                 f"{self!r}: plausible bounds {(plo, phi)} lie outside the hard bounds {(lo, hi)}"
@@ -111,9 +114,23 @@ def bounds_pair(what: str, values: object) -> Bounds:
     return lo, hi
 
 
+def finite(what: str, value: object) -> float:
+    """``value`` as a finite float; ``TypeError`` (not a number) or ``ValueError`` (NaN, inf)
+    naming ``what`` otherwise."""
+    if isinstance(value, bool) or not isinstance(value, (numbers.Real, str)):
+        raise TypeError(f"{what} must be a number, got {value!r}")
+    try:
+        number = float(value)
+    except ValueError:
+        raise ValueError(f"{what} must be a number, got {value!r}") from None
+    if not math.isfinite(number):
+        raise ValueError(f"{what} must be finite, got {number}")
+    return number
+
+
 def positive(what: str, value: object) -> float:
     """``value`` as a finite positive float; ``ValueError`` naming ``what`` otherwise."""
-    value = float(value)  # type: ignore[arg-type]
-    if not math.isfinite(value) or value <= 0:
+    value = finite(what, value)
+    if value <= 0:
         raise ValueError(f"{what} must be finite and > 0, got {value}")
     return value

@@ -8,7 +8,7 @@ import torch
 from scipy import stats
 from torch import Tensor
 
-from torchshm.priors.base import Bounds, Prior, bounds_pair, positive
+from torchshm.priors.base import Bounds, Prior, bounds_pair, finite, positive
 
 
 class Uniform(Prior):
@@ -92,7 +92,7 @@ class Normal(Prior):
     def __init__(
         self, mean: float, sd: float, bounds: Bounds | None = None, plausible: Bounds | None = None
     ) -> None:
-        self.mean = float(mean)
+        self.mean = finite("Normal mean", mean)
         if not math.isfinite(self.mean):
             raise ValueError(f"Normal mean must be finite, got {self.mean}")
         self.sd = positive("Normal sd", sd)
