@@ -48,11 +48,12 @@ def _summary(post: torchshm.Posterior) -> dict[str, list[float]]:
 
 def _emulator_row(post: torchshm.Posterior, wall: float) -> dict[str, object]:
     rounds = post.diagnostics["rounds"]
-    hours = sum(math.ceil(r["n_new_runs"] / WORKERS) for r in rounds) * MODEL_MIN / 60
-    return {"runs": post.n_model_evaluations, "rounds": len(rounds), "converged": post.converged,
+    hours = sum(math.ceil(r["n_runs"] / WORKERS) for r in rounds) * MODEL_MIN / 60
+    return {"runs": post.diagnostics["n_emulator_runs"], "new_runs": post.n_model_evaluations,
+            "rounds": len(rounds), "converged": post.converged,
             "sim_hours": hours, "wall_s": wall, "log_evidence": post.log_evidence,
             "log_evidence_sd": post.log_evidence_sd, **_summary(post),
-            "per_round": [{k: r[k] for k in ("n_new_runs", "tv", "mmtv", "emulator_share",
+            "per_round": [{k: r[k] for k in ("n_runs", "n_new_runs", "tv", "mmtv", "emulator_share",
                                                 "emulator_loglik_sd")} for r in rounds]}
 
 
@@ -188,13 +189,17 @@ def write_table(results: dict[str, dict]) -> str:
         for k in torchshm.KERNELS:
             r = s[k]
             bf = (r["log_evidence"] - base) / math.log(10)
-            lines.append(f"| {k} | {r['runs']} | {r['converged']} | {r['log_evidence']:.3f} ± "
+            lines.append(f"| {k} | {r['new_runs']} | {r['converged']} | {r['log_evidence']:.3f} ± "
                          f"{r['log_evidence_sd']:.3f} | {bf:+.1f} | {VBMC_BF[k]:+.1f} |")
         lines += ["", f"Runs in the shared store after all five kernels: {s['store_runs']}.", ""]
     return "\n".join(lines)
 
 
 def main() -> None:
+    import logging
+
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
+    logging.getLogger("torchshm.storage").setLevel(logging.WARNING)
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--part", nargs="+", default=["bridge", "four", "studyb"])
     parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md")

@@ -21,7 +21,7 @@ from torchshm.inference.adaptive.field import FieldEmulator
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, noise_levels
 from torchshm.inference.adaptive.sampling import total_variation
 
-SMALL = {"n_walkers": 16, "n_steps": 150, "final_steps": 500, "n_evidence": 2000}
+SMALL = {"n_walkers": 16, "n_steps": 100, "final_steps": 300, "n_evidence": 2000}
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +88,8 @@ def test_failed_runs_are_left_out_and_counted() -> None:
     problem = linear_gaussian_problem(truth=(0.3, -0.2), model=Failing())
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        post = torchshm.identify(problem, "emulator", seed=1, max_model_evaluations=12, **SMALL)
+        post = torchshm.identify(problem, "emulator", seed=1, max_model_evaluations=8,
+                                 n_walkers=12, n_steps=60, final_steps=100, n_evidence=500)
     assert post.diagnostics["n_failed_evaluations"] >= 1
     assert np.isfinite(post.summary()["p0"].mean)
 

@@ -1,7 +1,7 @@
 """method="emulator" killed with SIGKILL mid-round resumes without repeating a finished run.
 
-A subprocess identifies the linear-Gaussian problem with a slow model that logs every run it
-makes; it is killed while a batch is running, then run again to the end on the same store. No
+A subprocess identifies the linear-Gaussian data with a slow, curved model that logs every run
+it makes; it is killed while a batch is running, then run again to the end on the same store. No
 run that had finished (was in the store) at the kill is made again, and the result equals an
 uninterrupted run's to Monte Carlo error.
 """
@@ -27,8 +27,19 @@ SCRIPT = """
 import json, sys
 sys.path.insert(0, {here!r})
 from inference_models import SlowCountingModel, linear_gaussian_problem
+import torch
 import torchshm
-model = SlowCountingModel({counter!r}, delay=0.2)
+
+
+class Curved(SlowCountingModel):  # nonlinear in θp: the emulator needs several rounds
+    def __call__(self, theta_p):
+        t = torch.as_tensor(theta_p, dtype=torch.float64)
+        bend = torch.sin(3 * t[..., :1, None]) * self.basis[1] + t[..., 1:, None] ** 2 * self.basis[0]
+        return super().__call__(t) + 0.5 * bend
+
+
+model = Curved({counter!r}, delay=0.2)
+model.identity = "slow-curved-model-v1"
 problem = linear_gaussian_problem(model=model, store={store!r})
 post = torchshm.identify(problem, "emulator", seed=0, n_walkers=16, n_steps=100,
                          final_steps=300, n_evidence=2000)
@@ -49,9 +60,7 @@ def _lines(path: Path) -> list[str]:
 
 
 def _finished(store: Path) -> set[tuple[float, ...]]:
-    from inference_models import SlowCountingModel
-
-    theta, _ = EvaluationStore(store).all(SlowCountingModel(os.devnull))
+    theta, _ = EvaluationStore(store).all("slow-curved-model-v1")
     return {tuple(np.round(row, 9)) for row in np.asarray(theta).tolist()}
 
 
