@@ -168,7 +168,7 @@ def _posterior(problem: Any, log_joint: EmulatedLogJoint, walkers: np.ndarray,
         names=list(problem.names), method="emulator", samples=samples, log_evidence=log_z,
         log_evidence_sd=log_z_sd, n_model_evaluations=runs.n_new, converged=converged,
         diagnostics=diagnostics, priors=dict(getattr(problem, "priors", {}) or {}),
-        history=trace.history(), variational=vp, n_chains=extra["n_walkers"], problem=problem,
+        history=trace.history(), variational=vp, n_chains=1, problem=problem,
     )
 
 
