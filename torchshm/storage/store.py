@@ -285,9 +285,15 @@ class EvaluationStore:
         """Move every deposited result from the spool folder into the store.
 
         Returns:
-            The number of spool files moved.
+            The number of spool files moved. When the SQLite file cannot be written (disk
+            full), the rest stay in the spool, with a warning, for a later ingest.
         """
-        return spool.ingest(self.spool_folder, self.put)
+        try:
+            return spool.ingest(self.spool_folder, self.put)
+        except sqlite3.Error as exc:
+            logger.warning("%s: cannot move results from the spool (%s); they stay in %s",
+                           self, exc, self.spool_folder)
+            return 0
 
     def _drop_corrupt(self, con: sqlite3.Connection, row: tuple) -> None:
         logger.warning("%s: evaluation %s of %s is corrupt and is dropped", self, row[1], row[0])
