@@ -1,14 +1,17 @@
 """Strain reading anomalies (SRAs) of distributed fibre-optic sensing, as a documented rule.
 
-A reading is an anomaly when it stands out from its neighbours along the same line, in the
-same reading, by more than a threshold:
+A reading is an anomaly when it stands out from its neighbours on both sides along the same
+line, in the same reading, by more than a threshold:
 
-    |ε_i - median(ε_{i-r}, ..., ε_{i-1}, ε_{i+1}, ..., ε_{i+r})| > threshold   [µε]
+    |ε_i - median(ε_{i-r}, ..., ε_{i-1})| > threshold  and  |ε_i - median(ε_{i+1}, ..., ε_{i+r})| > threshold
 
-with the neighbours' NaN ignored (a reading with no finite neighbour is never flagged). This is
-the local-median height test of fosanalysis' outlier-specific correction procedure with a fixed
-threshold; a real strain change (a crack, a support) spreads over several gauges and passes,
-a spike of one or two readings (lost signal, a splice) does not. Flagged readings become NaN,
+in µε, with NaN neighbours ignored; at a line end, or next to lost readings, the side with no
+finite neighbour is left out, and a reading with no finite neighbour at all is never flagged.
+It is a two-sided form of the local-median height test of fosanalysis' outlier-specific
+correction with a fixed threshold: a real strain change (a step at a crack or a support)
+agrees with the readings on one side and passes; a narrow spike (lost signal, a splice: up to
+``(r - 1) // 2 + 1`` readings wide, 2 with the default ``r = 3``) disagrees with both sides and
+is flagged. Choose the threshold well above the noise and below the spikes, e.g. 100-500 µε. Flagged readings become NaN,
 i.e. dropouts of the mask (``missing="mask"``).
 """
 
@@ -21,7 +24,7 @@ import numpy as np
 from torchshm.data.measurements import Measurements
 
 
-def anomaly_mask(values: np.ndarray, threshold: float, radius: int = 2) -> np.ndarray:
+def anomaly_mask(values: np.ndarray, threshold: float, radius: int = 3) -> np.ndarray:
     """Where readings are anomalies, along the last axis.
 
     Args:
@@ -41,16 +44,21 @@ def anomaly_mask(values: np.ndarray, threshold: float, radius: int = 2) -> np.nd
     n = values.shape[-1]
     pad = [(0, 0)] * (values.ndim - 1) + [(radius, radius)]
     padded = np.pad(values, pad, constant_values=np.nan)
-    shifts = [k for k in range(-radius, radius + 1) if k != 0]
-    neighbours = np.stack([padded[..., radius + k: radius + k + n] for k in shifts], axis=-1)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN neighbourhoods
-        median = np.nanmedian(neighbours, axis=-1)
-    with np.errstate(invalid="ignore"):
-        return np.abs(values - median) > threshold
+    flagged = np.ones(values.shape, dtype=bool)
+    seen = np.zeros(values.shape, dtype=bool)
+    for shifts in (range(-radius, 0), range(1, radius + 1)):
+        side = np.stack([padded[..., radius + k: radius + k + n] for k in shifts], axis=-1)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN sides
+            median = np.nanmedian(side, axis=-1)
+        known = np.isfinite(median)
+        with np.errstate(invalid="ignore"):
+            flagged &= ~known | (np.abs(values - median) > threshold)
+        seen |= known
+    return flagged & seen & np.isfinite(values)
 
 
-def flag_anomalies(m: Measurements, threshold: float, radius: int = 2) -> Measurements:
+def flag_anomalies(m: Measurements, threshold: float, radius: int = 3) -> Measurements:
     """`m` with its anomalous readings (rule above, per line and load case) masked as dropouts.
 
     Args:

@@ -130,7 +130,7 @@ def read_odisi(
     tare: str = "file",
     reference: tuple[object, object] | None = None,
     anomaly: float | None = None,
-    anomaly_radius: int = 2,
+    anomaly_radius: int = 3,
     sigma_e: float | Mapping[object, float] = 0.1,
     missing: str = "error",
     attrs: Mapping[str, object] | None = None,
