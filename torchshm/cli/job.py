@@ -12,12 +12,18 @@ import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from torchshm.config import Config, DataConfig, build_priors, method_options, parameter_labels
 from torchshm.cli import outputs
 from torchshm.cli.models import instantiate_model, with_executor
 from torchshm.forward.parallel import ParallelModel
+
+if TYPE_CHECKING:
+    from torchshm.data.measurements import Measurements
+    from torchshm.forward.protocol import ForwardModel
+    from torchshm.inference.posterior import Posterior
+    from torchshm.problem import Problem
 
 log = logging.getLogger(__name__)
 
@@ -34,7 +40,7 @@ class JobResult:
         predictive: held-out scores per load case (empty without held-out load cases).
     """
 
-    posterior: Any
+    posterior: Posterior
     out_dir: Path
     wall_time_s: float
     files: dict[str, Path] = field(default_factory=dict)
@@ -47,7 +53,7 @@ def resolve_path(path: str, base: Path) -> Path:
     return p if p.is_absolute() else base / p
 
 
-def load_data(data: DataConfig, base: Path) -> Any:
+def load_data(data: DataConfig, base: Path) -> Measurements:
     """All load cases of the campaign or file, downsampled to ``data.resolution`` (if set).
 
     Raises:
@@ -65,7 +71,7 @@ def load_data(data: DataConfig, base: Path) -> Any:
     return measurements.downsample(data.resolution)
 
 
-def build_model(settings: Config, base: Path) -> Any:
+def build_model(settings: Config, base: Path) -> ForwardModel:
     """The forward model of ``settings.model`` (``_target_`` and keyword arguments), wrapped
     for parallel runs when ``settings.executor`` is not serial.
 
@@ -76,8 +82,8 @@ def build_model(settings: Config, base: Path) -> Any:
     return with_executor(model, settings.executor)
 
 
-def build_problem(settings: Config, model: Any, measurements: Any, base: Path,
-                  priors: dict[str, Any] | None = None) -> Any:
+def build_problem(settings: Config, model: ForwardModel, measurements: Measurements, base: Path,
+                  priors: dict[str, Any] | None = None) -> Problem:
     """The :class:`~torchshm.Problem` of the inference load cases ``settings.data.loads``.
 
     Args:
@@ -111,9 +117,9 @@ class PreparedJob:
     """A run whose inputs have all been read and checked; nothing has been evaluated yet."""
 
     settings: Config
-    problem: Any
-    measurements: Any
-    held_out: Any
+    problem: Problem
+    measurements: Measurements
+    held_out: Measurements | None
     t0: float
     labels: dict[str, str] = field(default_factory=dict)
 

@@ -16,12 +16,15 @@ from __future__ import annotations
 import sys
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from torchshm.config import ExecutorConfig
 
+if TYPE_CHECKING:
+    from torchshm.forward.protocol import ForwardModel
 
-def instantiate_model(spec: Mapping[str, Any], base: Path) -> Any:
+
+def instantiate_model(spec: Mapping[str, Any], base: Path) -> ForwardModel:
     """The forward model described by ``spec`` (``_target_`` and keyword arguments).
 
     Args:
@@ -54,7 +57,7 @@ def instantiate_model(spec: Mapping[str, Any], base: Path) -> Any:
     return model
 
 
-def with_executor(model: Any, executor: ExecutorConfig) -> Any:
+def with_executor(model: ForwardModel, executor: ExecutorConfig) -> ForwardModel:
     """``model`` itself for the serial executor, else a :class:`~torchshm.forward.ParallelModel`.
 
     Raises:

@@ -19,11 +19,15 @@ import logging
 import math
 from enum import Enum
 from pathlib import Path
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 import numpy as np
 
 from torchshm.cli import plots
+
+if TYPE_CHECKING:
+    from torchshm.data.measurements import Measurements
+    from torchshm.inference.posterior import Posterior
 
 log = logging.getLogger(__name__)
 
@@ -53,7 +57,7 @@ def history_traces(history: Mapping[str, np.ndarray], names: list[str]) -> dict[
     }
 
 
-def write_posterior(post: Any, out_dir: Path, attrs: Mapping[str, Any],
+def write_posterior(post: Posterior, out_dir: Path, attrs: Mapping[str, Any],
                     labels: Mapping[str, str] | None = None) -> dict[str, Path]:
     """Posterior file, summary table (printed too) and figures of ``post`` in ``out_dir``.
 
@@ -86,7 +90,7 @@ def write_posterior(post: Any, out_dir: Path, attrs: Mapping[str, Any],
 
 
 def write_predictive(
-    post: Any, held_out: Any, n: int, seed: int, out_dir: Path,
+    post: Posterior, held_out: Measurements | None, n: int, seed: int, out_dir: Path,
 ) -> tuple[list[dict[str, float]], dict[str, Path]]:
     """Posterior predictive of the held-out load cases: scores per load case and a plot.
 

@@ -9,13 +9,16 @@ entries with and without it.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
 from torch import Tensor
 
 from torchshm.forward.protocol import as_tensor, model_identity
+
+if TYPE_CHECKING:
+    from torchshm.forward.protocol import ForwardModel
 
 
 class ParallelModel:
@@ -31,7 +34,7 @@ class ParallelModel:
         identity: ``model``'s identity in an evaluation store.
     """
 
-    def __init__(self, model: Any, n_jobs: int = 1, executor: Any | None = None) -> None:
+    def __init__(self, model: ForwardModel, n_jobs: int = 1, executor: Any | None = None) -> None:
         self.model = model
         self.n_jobs, self.executor = n_jobs, executor
         self.x, self.loads = model.x, model.loads

@@ -9,8 +9,9 @@ from __future__ import annotations
 import hashlib
 from typing import Protocol, runtime_checkable
 
-import torch
 from torch import Tensor
+
+from torchshm.arrays import as_float64
 
 
 @runtime_checkable
@@ -30,11 +31,8 @@ class ForwardModel(Protocol):
         ...
 
 
-def as_tensor(values: object) -> Tensor:
-    """Float64 CPU tensor view of an array-like (tensors keep their autograd graph)."""
-    if isinstance(values, Tensor):
-        return values.to(torch.float64)
-    return torch.as_tensor(values, dtype=torch.float64)
+#: float64 tensor of an array-like (tensors keep their autograd graph): :func:`torchshm.arrays.as_float64`
+as_tensor = as_float64
 
 
 def model_identity(model: object) -> str:

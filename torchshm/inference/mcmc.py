@@ -13,7 +13,7 @@ import json
 import time
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import emcee
 import numpy as np
@@ -22,6 +22,9 @@ from torchshm.forward.protocol import model_identity
 from torchshm.inference.posterior import Posterior
 from torchshm.inference.target import LogJointTarget
 from torchshm.inference.tensorboard import RunTrace, marginal_scalars
+
+if TYPE_CHECKING:
+    from torchshm.problem import Problem
 
 
 #: a walker accepting less than this fraction of the median walker's acceptance is stuck
@@ -37,7 +40,7 @@ def stuck_walkers(acceptance: np.ndarray) -> np.ndarray:
     return np.flatnonzero(acceptance < STUCK_RATIO * median)
 
 
-def _problem_signature(problem: Any) -> str:
+def _problem_signature(problem: Problem) -> str:
     """What a resumed chain must share with the run that started it (JSON text)."""
     m = problem.measurements
     digest = hashlib.sha256()
@@ -100,7 +103,7 @@ def _checkpoint_row(
 
 
 def run_emcee(
-    problem: Any,
+    problem: Problem,
     seed: int = 0,
     *,
     log_dir: str | Path | None = None,
@@ -176,7 +179,7 @@ def run_emcee(
 
 
 def _posterior(
-    problem: Any, backend: emcee.backends.Backend, trace: RunTrace, target: LogJointTarget,
+    problem: Problem, backend: emcee.backends.Backend, trace: RunTrace, target: LogJointTarget,
     calls_before: int, burn: int, thin: int, extra: dict[str, Any],
 ) -> Posterior:
     """Assemble the :class:`Posterior` of a finished chain and warn when it is too short."""

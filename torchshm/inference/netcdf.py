@@ -18,13 +18,16 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
 
 from torchshm.inference.posterior import Posterior, as_chains
 from torchshm.inference.priors_json import priors_from_json, priors_to_json
+
+if TYPE_CHECKING:
+    from pyvbmc import VariationalPosterior
 
 ENGINE = "h5netcdf"
 FORMAT_VERSION = 1
@@ -80,7 +83,7 @@ def _history_group(post: Posterior) -> xr.Dataset:
                       coords={"column": np.array(keys, dtype=object)})
 
 
-def _variational_group(vp: Any) -> xr.Dataset:
+def _variational_group(vp: VariationalPosterior) -> xr.Dataset:
     data: dict[str, Any] = {
         "w": (("component",), np.asarray(vp.w, dtype=np.float64).ravel()),
         "mu": (("dim", "component"), np.asarray(vp.mu, dtype=np.float64)),

@@ -28,6 +28,8 @@ __all__ = ["SUMMARY_QUANTILES", "Posterior", "PosteriorSummary", "SummaryRow", "
            "summarize"]
 
 if TYPE_CHECKING:
+    from torchshm.problem import Problem
+    from pyvbmc import VariationalPosterior
     import arviz as az
 
 @dataclass
@@ -67,9 +69,9 @@ class Posterior:
     priors: dict[str, Any] = field(default_factory=dict)
     history: dict[str, np.ndarray] = field(default_factory=dict)
     sample_stats: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
-    variational: Any = field(default=None, repr=False)
+    variational: VariationalPosterior | None = field(default=None, repr=False)
     n_chains: int = 1
-    problem: Any = field(default=None, repr=False, compare=False)
+    problem: Problem | None = field(default=None, repr=False, compare=False)
 
     @property
     def prior(self) -> JointPrior:

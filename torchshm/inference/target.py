@@ -21,14 +21,17 @@ import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from torchshm.forward.protocol import model_identity
 
+if TYPE_CHECKING:
+    from torchshm.problem import Problem
 
-def store_path(problem: Any) -> Path | None:
+
+def store_path(problem: Problem) -> Path | None:
     """Path of the problem's evaluation store, or None when it has none."""
     store = getattr(problem, "store", None)
     if store is None:
@@ -104,7 +107,7 @@ class PointLog:
         return np.array(rows, dtype=np.float64).reshape(-1, len(self.names))
 
 
-def point_log_for(problem: Any) -> PointLog | None:
+def point_log_for(problem: Problem) -> PointLog | None:
     """The :class:`PointLog` beside the problem's store, or None when it has no store."""
     path = store_path(problem)
     if path is None:
@@ -132,7 +135,7 @@ class LogJointTarget:
         n_failed: evaluations inside the hard bounds whose log joint was not finite.
     """
 
-    problem: Any
+    problem: Problem
     point_log: PointLog | None = None
     impute_failures: bool = False
     hard_bounds: np.ndarray | None = None

@@ -12,7 +12,7 @@ import copy
 import time
 import warnings
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 from pyvbmc import VBMC
@@ -21,6 +21,10 @@ from torchshm.inference.posterior import Posterior
 from torchshm.inference.start import StartSettings, find_start, vbmc_budget, vbmc_start
 from torchshm.inference.target import LogJointTarget, point_log_for
 from torchshm.inference.tensorboard import RunTrace, marginal_scalars
+
+if TYPE_CHECKING:
+    from torchshm.problem import Problem
+    from pyvbmc import VariationalPosterior
 
 #: samples drawn from the variational posterior per iteration for the trace's intervals
 TRACE_SAMPLES = 20_000
@@ -105,7 +109,7 @@ def _pyvbmc_options(
 
 
 def run_vbmc(
-    problem: Any,
+    problem: Problem,
     seed: int = 0,
     *,
     log_dir: str | Path | None = None,
@@ -176,7 +180,7 @@ def _reuse_previous_points(target: LogJointTarget) -> int:
 
 
 def _posterior(
-    problem: Any, vp: Any, results: dict[str, Any], trace: RunTrace, target: LogJointTarget,
+    problem: Problem, vp: VariationalPosterior, results: dict[str, Any], trace: RunTrace, target: LogJointTarget,
     calls_before: int, n_samples: int, seed: int, extra: dict[str, Any],
 ) -> Posterior:
     """Assemble the :class:`Posterior` of a finished PyVBMC run and warn when not converged."""

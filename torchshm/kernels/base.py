@@ -10,9 +10,12 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
-import numpy as np
 import torch
 from torch import Tensor
+
+from torchshm.arrays import as_float64
+
+__all__ = ["MIN_LENGTH", "REGISTRY", "Kernel", "as_float64", "distances", "scaled_distance"]
 
 #: name -> kernel class, in the order the classes were defined (filled by ``Kernel`` itself)
 REGISTRY: dict[str, type[Kernel]] = {}
@@ -21,13 +24,6 @@ REGISTRY: dict[str, type[Kernel]] = {}
 #: correlation of two distinct points more than ~1e-6 m apart is then exactly 0 in float64, as it
 #: is for any shorter length, and ``d / l`` and its gradient stay finite at ``l = 0``.
 MIN_LENGTH = 1e-9
-
-
-def as_float64(values: object) -> Tensor:
-    """Float64 tensor of an array-like; tensors keep their device and autograd graph."""
-    if isinstance(values, Tensor):
-        return values.to(torch.float64)
-    return torch.as_tensor(np.array(values, dtype=np.float64, order="C"))
 
 
 def distances(x1: Tensor, x2: Tensor) -> Tensor:

@@ -16,9 +16,12 @@ import math
 import numbers
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from torchshm.inference.protocol import PosteriorLike
 
 #: (upper end of log10 B, label) of Jeffreys' scale, Table 1
 JEFFREYS: tuple[tuple[float, str], ...] = (
@@ -96,7 +99,7 @@ class BayesFactors:
         return self.to_markdown()
 
 
-def _evidence(name: str, item: Any) -> tuple[float, float]:
+def _evidence(name: str, item: PosteriorLike | tuple[float, float] | float) -> tuple[float, float]:
     """``(elbo, sd)`` of a posterior, an ``(elbo, sd)`` pair or a bare number."""
     if isinstance(item, numbers.Real):
         return float(item), math.nan
@@ -112,7 +115,7 @@ def _evidence(name: str, item: Any) -> tuple[float, float]:
     return float(elbo), math.nan if sd is None else float(sd)
 
 
-def bayes_factors(models: Mapping[str, Any], z: float = 1.96) -> BayesFactors:
+def bayes_factors(models: Mapping[str, PosteriorLike | tuple[float, float] | float], z: float = 1.96) -> BayesFactors:
     """Pairwise log10 Bayes factors from ELBOs and Jeffreys' labels (Table 9).
 
     Args:

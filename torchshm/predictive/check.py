@@ -10,7 +10,7 @@ it. This check *does* evaluate the model (``2 * n_points`` runs): it is a valida
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Iterable
+from typing import TYPE_CHECKING, Iterable
 
 import numpy as np
 import torch
@@ -18,6 +18,10 @@ from torch import Tensor
 
 from torchshm.predictive.predictive import stored_emulator
 from torchshm.predictive.selection import load_index, parameter_columns, position_index, problem_of
+
+if TYPE_CHECKING:
+    from torchshm.inference.protocol import PosteriorLike
+    from torchshm.problem import Problem
 
 
 @dataclass
@@ -51,8 +55,8 @@ class EmulatorCheck:
 
 
 def emulator_check(
-    post: Any, loads: Iterable[float] | float, level: float = 0.99, n_points: int = 50,
-    n_pool: int = 20_000, seed: int = 0, problem: Any | None = None,
+    post: PosteriorLike, loads: Iterable[float] | float, level: float = 0.99, n_points: int = 50,
+    n_pool: int = 20_000, seed: int = 0, problem: Problem | None = None,
 ) -> EmulatorCheck:
     """Compare the emulator with the model on and outside the ``level`` credible region.
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import logging
 import time
-from typing import Any, Iterable, Literal
+from typing import TYPE_CHECKING, Any, Iterable, Literal
 
 import numpy as np
 import torch
@@ -38,6 +38,11 @@ from torchshm.predictive.selection import (
 )
 from torchshm.surrogate import Surrogate
 
+if TYPE_CHECKING:
+    from torchshm.forward.protocol import ForwardModel
+    from torchshm.inference.protocol import PosteriorLike
+    from torchshm.problem import Problem
+
 logger = logging.getLogger(__name__)
 
 #: the emulator variance counts when its largest value exceeds this share of ``sigma_e**2``
@@ -49,13 +54,13 @@ Positions = Literal["measured", "model"]
 
 
 def posterior_predictive(
-    post: Any,
+    post: PosteriorLike,
     loads: Iterable[float] | float,
     n: int = 2000,
     seed: int = 0,
     include_surrogate_variance: bool | Literal["auto"] = "auto",
     positions: Positions = "measured",
-    problem: Any | None = None,
+    problem: Problem | None = None,
     level: float = 0.95,
     emulator_options: dict[str, Any] | None = None,
 ) -> PredictiveResult:
@@ -110,13 +115,13 @@ def posterior_predictive(
 
 
 def exact_predictive(
-    post: Any,
+    post: PosteriorLike,
     loads: Iterable[float] | float,
     n: int = 2000,
     seed: int = 0,
     positions: Positions = "measured",
-    problem: Any | None = None,
-    model: Any | None = None,
+    problem: Problem | None = None,
+    model: ForwardModel | None = None,
     level: float = 0.95,
 ) -> PredictiveResult:
     """Posterior predictive with the model evaluated at every draw (costs `n` model runs).
@@ -135,7 +140,7 @@ def exact_predictive(
     with torch.no_grad():
         out = torch.as_tensor(model(torch.as_tensor(theta_p)), dtype=torch.float64)
     eta = out[:, loads_idx][:, :, pos_idx]
-    logger.info("posterior predictive: drawing %d strain fields at %d load case(s)", n, len(loads_t))
+    logger.info("posterior predictive: drawing %d strain fields at %d load case(s)", n, len(loads_idx))
     samples = _draw(problem, eta, x, sigma_a, length, streams.noise)
     return PredictiveResult.from_draws(
         samples, x, _loads_tensor(problem.model, loads_idx), level, theta, list(post.names),
@@ -144,7 +149,7 @@ def exact_predictive(
 
 
 def stored_emulator(
-    problem: Any,
+    problem: Problem,
     loads: Iterable[float] | float,
     positions: Positions = "measured",
     seed: int = 0,
@@ -173,7 +178,7 @@ def stored_emulator(
     return emulator
 
 
-def _training_data(problem: Any, loads_idx: Tensor, pos_idx: Tensor, seed: int) -> tuple[Tensor, Tensor]:
+def _training_data(problem: Problem, loads_idx: Tensor, pos_idx: Tensor, seed: int) -> tuple[Tensor, Tensor]:
     """Stored `theta_p` (`M x P`) and outputs (`M x L' x n_x`), at most MAX_TRAINING_POINTS."""
     theta_p, outputs = problem.evaluations()
     theta_p = torch.as_tensor(np.asarray(theta_p), dtype=torch.float64)
@@ -190,12 +195,12 @@ def _training_data(problem: Any, loads_idx: Tensor, pos_idx: Tensor, seed: int) 
     return theta_p, outputs[:, loads_idx][:, :, pos_idx]
 
 
-def _draw(problem: Any, eta: Tensor, x: Tensor, sigma_a: Tensor, length: Tensor | None,
+def _draw(problem: Problem, eta: Tensor, x: Tensor, sigma_a: Tensor, length: Tensor | None,
           generator: torch.Generator) -> Tensor:
     """Predictive draws `n x L' x n_x` with the problem's kernel, ``sigma_m`` and ``sigma_e``."""
     return predictive_draws(eta, x, get_kernel(problem.kernel), sigma_a, length,
                             float(problem.sigma_m), float(problem.sigma_e), generator)
 
 
-def _loads_tensor(model: Any, loads_idx: Tensor) -> Tensor:
+def _loads_tensor(model: ForwardModel, loads_idx: Tensor) -> Tensor:
     return torch.as_tensor(model.loads, dtype=torch.float64)[loads_idx]

@@ -17,6 +17,8 @@ import torch
 from scipy import stats
 from torch import Tensor
 
+from torchshm.arrays import as_float64
+
 #: quantiles of the default plausible bounds: the central 68.27 % (mean -/+ 1 sd of a normal)
 PLAUSIBLE_QUANTILES = (0.15865525393145707, 0.8413447460685429)
 
@@ -80,7 +82,7 @@ class Prior(ABC):
         Returns:
             Log densities of the same shape and kind as ``x`` (numpy for non-tensors).
         """
-        t = x.to(torch.float64) if isinstance(x, Tensor) else torch.as_tensor(_array(x))
+        t = as_float64(x)
         lo, hi = self.hard_bounds
         inside = (t >= lo) & (t <= hi)
         safe = torch.where(inside, t, self.plausible_bounds[0])
@@ -96,11 +98,6 @@ class Prior(ABC):
     def sample(self, n: int, rng: np.random.Generator | int | None = None) -> np.ndarray:
         """``n`` independent draws (numpy `n`) by inverting the truncated distribution function."""
         return self.ppf(np.random.default_rng(rng).uniform(size=int(n)))
-
-
-def _array(values: object) -> np.ndarray:
-    """A C-contiguous float64 copy of an array-like (torch refuses negative strides)."""
-    return np.array(values, dtype=np.float64, order="C")
 
 
 def bounds_pair(what: str, values: object) -> Bounds:

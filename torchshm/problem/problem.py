@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from os import PathLike
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -25,6 +25,10 @@ from torchshm.priors import Prior, paper_priors
 from torchshm.problem.parameters import ParameterSplit, read_priors
 from torchshm.problem.prior import JointPrior
 from torchshm.storage.cached_model import CachedModel
+
+if TYPE_CHECKING:
+    from torchshm.forward.protocol import ForwardModel
+    from torchshm.data.measurements import Measurements
 
 
 class Problem:
@@ -63,8 +67,8 @@ class Problem:
 
     def __init__(
         self,
-        model: Any,
-        measurements: Any,
+        model: ForwardModel,
+        measurements: Measurements,
         kernel: str | Kernel = "matern32",
         priors: Mapping[str, Prior | float] | None = None,
         sigma_m: float = 0.05,

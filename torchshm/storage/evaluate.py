@@ -11,7 +11,7 @@ import logging
 import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,6 +21,9 @@ from torchshm.storage.interrupt import resumable
 from torchshm.storage.keys import theta_key, canonical_theta
 from torchshm.storage.record import Record
 from torchshm.storage.store import EvaluationStore
+
+if TYPE_CHECKING:
+    from torchshm.forward.protocol import ForwardModel
 
 logger = logging.getLogger(__name__)
 
@@ -70,7 +73,7 @@ class EvaluationResult:
 
 
 def evaluate(
-    model: Any,
+    model: ForwardModel,
     theta_p: object,
     store: EvaluationStore | str | Path | None = None,
     n_jobs: int = 1,

@@ -17,7 +17,7 @@ import os
 import socket
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import joblib
 import submitit
@@ -26,6 +26,9 @@ from joblib.externals.loky.process_executor import TerminatedWorkerError
 from torchshm.storage.keys import key_theta
 from torchshm.storage.record import Record, now_utc, run_model
 from torchshm.storage.store import EvaluationStore
+
+if TYPE_CHECKING:
+    from torchshm.forward.protocol import ForwardModel
 
 logger = logging.getLogger(__name__)
 
@@ -42,7 +45,7 @@ class Task:
         retry_failed: whether a stored failure is run again.
     """
 
-    model: Any
+    model: ForwardModel
     identity: str
     shape: tuple[int, int]
     store: EvaluationStore | None
