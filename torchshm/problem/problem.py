@@ -77,6 +77,12 @@ class Problem:
     ) -> None:
         self.model = model
         self.measurements = measurements
+        if getattr(measurements, "line", None) is not None or getattr(measurements, "n_missing", 0) \
+                or np.ndim(measurements.x) != 1:
+            raise ValueError(
+                "Problem: measurements with sensor lines, (n, d) coordinates or masked readings are not "
+                "used by the likelihood yet; give one fibre with every reading valid"
+            )
         self.kernel = get_kernel(kernel)
         self.sigma_m = _scale("sigma_m", sigma_m)
         self.sigma_e = _scale("sigma_e", measurements.sigma_e if sigma_e is None else sigma_e)
