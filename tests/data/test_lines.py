@@ -36,6 +36,15 @@ def test_one_fibre_unchanged() -> None:
     m = Measurements([0.0, 0.1, 0.2], [[1.0, 2.0, 3.0]], [39.8])
     assert m.line is None and m.lines == (None,) and m.n_missing == 0 and m.mask.all()
     assert m.sigma_e == 0.1 and m.missing == "error"
+    assert repr(m) == "Measurements(1 load cases [39.8], 3 positions 0..0.2 m, pitch 0.1 m, sigma_e=0.1 µε)"
+
+
+def test_format_names_and_exports(tmp_path: Path) -> None:
+    import torchshm.data
+
+    m = two_lines()
+    assert load_measurements(m.save(tmp_path / "m.txt.csv"), format="CSV").equals(m)
+    assert torchshm.data.flag_anomalies(m, threshold=1e3).n_missing == m.n_missing
 
 
 def test_select_and_downsample_per_line() -> None:

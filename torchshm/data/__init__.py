@@ -6,10 +6,14 @@ from typing import Any
 
 from torchshm.data.measurements import Measurements, load_measurements
 
-__all__ = ["Measurements", "load_measurements", "synthetic_campaign"]
+__all__ = ["Measurements", "load_measurements", "synthetic_campaign", "flag_anomalies"]
 
 
 def __getattr__(name: str) -> Any:
+    if name == "flag_anomalies":
+        from torchshm.data.anomaly import flag_anomalies
+
+        return flag_anomalies
     if name == "synthetic_campaign":
         from torchshm.data.campaign import synthetic_campaign
 

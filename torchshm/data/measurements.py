@@ -279,6 +279,7 @@ def load_measurements(
     """
     from torchshm.data import odisi, tables
 
+    format = None if format is None else str(format).lower()
     if format is None and not isinstance(path, Mapping):
         format = {".tsv": "odisi", ".nc": "netcdf", ".csv": "csv"}.get(Path(path).suffix.lower())
     if format == "odisi":

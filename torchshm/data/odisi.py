@@ -154,6 +154,8 @@ def read_odisi(
     Raises:
         ValueError: naming the file and row of a malformed export, or the bad option.
     """
+    if tare not in ("file", "add"):
+        raise ValueError(f"read_odisi: tare must be 'file' or 'add', got {tare!r}")
     if isinstance(path, Mapping):
         if windows is not None:
             raise ValueError("read_odisi: give windows with one file, or one file per load case, not both")
@@ -174,8 +176,6 @@ def read_odisi(
     y = np.empty((len(picks), cols.size))
     for i, (f, rows) in enumerate(picks.values()):
         data = f.rows + (f.tare if tare == "add" else 0.0)
-        if tare not in ("file", "add"):
-            raise ValueError(f"read_odisi: tare must be 'file' or 'add', got {tare!r}")
         if reference is not None:
             data = data - _mean(data[_in(f, reference, "reference")])
         block = data[rows][:, cols]
