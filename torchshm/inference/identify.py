@@ -40,7 +40,19 @@ def identify(
 
     Raises:
         ValueError: for an unknown method.
+        KeyboardInterrupt, SystemExit: on Ctrl-C, or SIGTERM (exit status 143), the run stops
+            at once after one line on stderr; every finished model run is in the problem's
+            store, and the same call on the same store resumes.
     """
+    from torchshm.storage.interrupt import resumable, store_of
+
+    with resumable(f"identify ({method})", store_of(problem)):
+        return _run(problem, method, seed, log_dir, options)
+
+
+def _run(problem: Problem, method: str, seed: int, log_dir: str | Path | None,
+         options: dict[str, Any]) -> Posterior:
+    """Dispatch to the method's runner (see :func:`identify`)."""
     if method == "vbmc":
         from torchshm.inference.variational import run_vbmc
 
