@@ -98,7 +98,7 @@ def _load_csv(path: Path, missing: str | None) -> Measurements:
     header = [h.strip().lower() for h in lines[start].split(",")] if start < len(lines) else []
     extended = {"line", "y", "z"} & set(header) or {"lines", "missing", "sigma_e_by_line"} & set(meta)
     if not extended and (missing or "error") == "error":  # the original layout, its own messages
-        return io.load(path) if path.suffix.lower() == ".csv" else io._load_csv(path)
+        return _original(path, io.load if path.suffix.lower() == ".csv" else io._load_csv)
     if not header or not {"load", "x", "strain"} <= set(header) or not set(header) <= set(COLUMNS) \
             or len(set(header)) != len(header) or ("z" in header and "y" not in header):
         raise ValueError(
@@ -129,6 +129,17 @@ def _load_csv(path: Path, missing: str | None) -> Measurements:
     order = json.loads(meta["lines"]) if "lines" in meta else None
     line = _labels(labels, order) if "line" in header else None
     return _grid(cols["load"], coords, line, cols["strain"], meta, missing, [n for n, _ in rows])
+
+
+def _original(path: Path, reader) -> Measurements:
+    """Read the original layout with its own messages; a NaN strain gets the dropout hint."""
+    try:
+        return reader(path)
+    except ValueError as err:
+        message = str(err)
+        if "strain is nan" in message:
+            raise ValueError(f"{message}; missing='mask' treats NaN readings as dropouts") from None
+        raise
 
 
 def _labels(text: list[str], order: list | None) -> list:
@@ -219,7 +230,7 @@ def _load_nc(path: Path, missing: str | None) -> Measurements:
     meta = {k: str(v) for k, v in ds.attrs.items()}
     if "strain" in ds and ds["strain"].dims == ("load", "x"):
         if (missing or meta.get("missing", "error")) == "error":
-            return io.load(path)
+            return _original(path, io.load)
         x = np.asarray(ds["x"].values, dtype=np.float64)
     elif "strain" in ds and ds["strain"].dims == ("load", "point") and "x" in ds:
         x = np.asarray(ds["x"].values, dtype=np.float64)
