@@ -1,4 +1,4 @@
-"""The shipped surrogate of bridge 705 against the finite element model (acceptance checks).
+"""Bridge 705's surrogate: the paper's grid and the shipped GP against the finite element model.
 
 If the finite element model changes, these tests fail until the shipped file is regenerated
 with ``python scripts/make_surrogate.py``.
@@ -12,10 +12,10 @@ import pytest
 import torch
 
 import torchshm
-from torchshm.surrogate import (
-    POSTERIOR_BOX, PRIOR_BOX, Surrogate, bridge705_surrogate, paper_design, surrogate_errors,
-    uniform_in_box,
+from torchshm.physics.surrogate import (
+    POSTERIOR_BOX, PRIOR_BOX, bridge705_surrogate, paper_design,
 )
+from torchshm.surrogate import Surrogate, surrogate_errors, uniform_in_box
 
 
 @pytest.fixture(scope="module")
@@ -71,3 +71,19 @@ def test_variance_is_small_at_the_design_and_non_negative(shipped: Surrogate) ->
     away = shipped.variance(uniform_in_box(100, PRIOR_BOX, seed=7))
     assert bool((at_design >= 0).all()) and bool((away >= 0).all())
     assert float(at_design.max().sqrt()) < 1e-3  # µε, against σ_e = 0.1 µε
+
+
+def test_paper_design_is_the_7_by_16_grid() -> None:
+    design = paper_design()
+    assert design.shape == (112, 2) and design.dtype == torch.float64
+    e_c, log_k = design[:, 0].unique(), design[:, 1].unique()
+    torch.testing.assert_close(e_c, torch.linspace(10.0, 100.0, 7, dtype=torch.float64))
+    torch.testing.assert_close(log_k, torch.linspace(0.0, 12.0, 16, dtype=torch.float64))
+    assert design.unique(dim=0).shape[0] == 112
+
+
+def test_surrogate_package_still_offers_the_bridge_names() -> None:
+    import torchshm.surrogate as generic
+
+    assert generic.paper_design is paper_design and generic.PRIOR_BOX == PRIOR_BOX
+    assert torchshm.bridge705_surrogate is bridge705_surrogate
