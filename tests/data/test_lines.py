@@ -150,3 +150,36 @@ def test_old_files_and_old_messages_unchanged(tmp_path: Path) -> None:
         load_measurements(path)
     masked = load_measurements(path, missing="mask")
     assert masked.n_missing == 1 and masked.missing == "mask"
+
+
+def test_fuzzed_extended_csv_loads_or_names_the_file() -> None:
+    """Malformed extended CSVs end in one ValueError line naming the file (Hypothesis)."""
+    import tempfile
+
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    token = st.sampled_from(["A", "B", "1", "2", "0.0", "0.1", "nan", "inf", "", "x", "1e999", " A"])
+    rows = st.lists(st.lists(token, min_size=3, max_size=5).map(",".join), max_size=8)
+    header = st.sampled_from(["line,load,x,strain", "line,load,x,y,strain", "line,load,x,z,strain",
+                              "load,x,y,strain", "line,line,x,strain"])
+    meta = st.lists(st.sampled_from(["# missing=mask", "# lines=[\"A\"]", "# lines=[", "# sigma_e_by_line=[[\"A\", 1]]",
+                                     "# sigma_e_by_line=x", "# lines=5", "# sigma_e_by_line=[1]",
+                                     "# lines=[{}]"]), max_size=2)
+    header = st.one_of(header, st.just("load,x,strain"))
+
+    @settings(max_examples=60, derandomize=True, deadline=None, database=None,
+              suppress_health_check=[HealthCheck.too_slow])
+    @given(meta=meta, header=header, rows=rows, missing=st.sampled_from([None, "mask"]))
+    def check(meta: list[str], header: str, rows: list[str], missing: str | None) -> None:
+        with tempfile.TemporaryDirectory() as folder:
+            path = Path(folder) / "c.csv"
+            path.write_text("\n".join([*meta, header, *rows]) + "\n", encoding="utf-8")
+            try:
+                m = load_measurements(path, missing=missing)
+            except ValueError as err:
+                assert "\n" not in str(err) and str(path) in str(err), str(err)
+                return
+            assert m.y.shape == (m.loads.size, m.n) and not np.isinf(m.y).any()
+
+    check()

@@ -126,8 +126,7 @@ def _load_csv(path: Path, missing: str | None) -> Measurements:
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
             raise ValueError(f"line {rows[i][0]}: {c} is {cols[c][i]}; it must be a finite number")
-    order = json.loads(meta["lines"]) if "lines" in meta else None
-    line = _labels(labels, order) if "line" in header else None
+    line = _labels(labels, _line_order(meta)) if "line" in header else None
     return _grid(cols["load"], coords, line, cols["strain"], meta, missing, [n for n, _ in rows])
 
 
@@ -140,6 +139,20 @@ def _original(path: Path, reader) -> Measurements:
         if "strain is nan" in message:
             raise ValueError(f"{message}; missing='mask' treats NaN readings as dropouts") from None
         raise
+
+
+def _line_order(meta: dict) -> list | None:
+    """The ``lines`` metadata: a JSON list of distinct int or str labels, or ``None``."""
+    if "lines" not in meta:
+        return None
+    try:
+        order = json.loads(meta["lines"])
+    except ValueError:
+        order = None
+    if not isinstance(order, list) or not order or len({str(v) for v in order}) != len(order) \
+            or not all(isinstance(v, (int, str)) and not isinstance(v, bool) for v in order):
+        raise ValueError(f"malformed lines metadata {meta['lines'][:80]!r} (a JSON list of distinct labels)")
+    return order
 
 
 def _labels(text: list[str], order: list | None) -> list:
@@ -159,8 +172,8 @@ def _labels(text: list[str], order: list | None) -> list:
 def _grid(load, coords, line, strain, meta, missing, numbers) -> Measurements:
     """Long table -> Measurements: loads and lines in order of first appearance, points sorted."""
     mode = missing or meta.get("missing", "error").strip()
+    line_order = (_line_order(meta) if line is not None else None) or list(dict.fromkeys(line or [""]))
     line = ["" for _ in load] if line is None else line
-    line_order = list(dict.fromkeys(line)) if "lines" not in meta else json.loads(meta["lines"])
     line_rank = {label: k for k, label in enumerate(line_order)}
     keys = np.column_stack([np.array([line_rank[v] for v in line], dtype=float), coords])
     points, pi = np.unique(keys, axis=0, return_inverse=True)  # sorted by line, then x (y, z)
@@ -238,8 +251,7 @@ def _load_nc(path: Path, missing: str | None) -> Measurements:
         raise ValueError("needs a variable 'strain' with dims (load, x) or (load, point)")
     line = None
     if "line" in ds:
-        order = json.loads(meta["lines"]) if "lines" in meta else None
-        line = _labels([str(v) for v in ds["line"].values], order)
+        line = _labels([str(v) for v in ds["line"].values], _line_order(meta))
     return Measurements(x, np.asarray(ds["strain"].values, dtype=np.float64),
                         np.asarray(ds["load"].values, dtype=np.float64), _sigma(meta), _attrs(meta),
                         line=line, missing=missing or meta.get("missing", "error"))
