@@ -152,8 +152,8 @@ class Eq21:
 
         Standard normals come from ``generator`` in a fixed order: `B x L x n` for the
         multiplicative term, then for the dense and diagonal forms `B x L x n` multiplied by the
-        factor of ``K + sigma_e**2 I``; for the state space, per chunk of responses, `b x L x n x p`
-        process noise (along sorted positions) and `b x L x n` measurement noise.
+        factor of ``K + sigma_e**2 I``; for the state space `B x L x p` process noise at each
+        position in ascending order, then `B x L x n` measurement noise.
 
         Raises:
             ValueError: if a dense discrepancy covariance is not positive definite.
@@ -162,15 +162,10 @@ class Eq21:
         z1 = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
         out = eta + self.sigma_m * eta * z1
         if self.method == "state_space":
-            p, order = self.kern.state_dim, self._order()
-            step = max(1, SAMPLE_CHUNK_BYTES * 8 // (eta[0].numel() * (p + 1) * 8))
-            for start in range(0, eta.shape[0], step):
-                part = slice(start, start + step)
-                shape = eta[part].shape
-                z = torch.randn((*shape, p), generator=generator, dtype=torch.float64).to(eta.device)
-                e = torch.randn(shape, generator=generator, dtype=torch.float64).to(eta.device)
-                f = statespace.sample(x[order], self.kern, self.sigma_a[part], self.length[part], z)
-                out[part][..., order] += f + self.sigma_e * e[..., order]
+            order = self._order()
+            f = statespace.sample(x[order], self.kern, self.sigma_a, self.length, eta.shape[1], generator)
+            e = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
+            out[..., order] += f + self.sigma_e * e[..., order]
             return out
         z2 = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
         if self.method == "diagonal":

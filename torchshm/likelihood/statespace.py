@@ -168,34 +168,40 @@ def _filter(F: Tensor, Q: Tensor, y: Tensor, D: Tensor, seen: Tensor, m: Tensor,
     return torch.stack(terms)
 
 
-def sample(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, z: Tensor) -> Tensor:
-    """Draws of the discrepancy ``f`` `B x L x n` from standard normals ``z`` `B x L x n x p`.
+def sample(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, n_loads: int, generator: torch.Generator) -> Tensor:
+    """Draws of the discrepancy ``f`` `B x L x n` at sorted positions ``x``, O(n) time.
 
-    ``s_k = F_k s_{k-1} + chol(Q_k) z_k`` as an affine scan; ``chol`` is taken through a
-    symmetric eigendecomposition so that a zero step (``Q = 0``) is exact.
+    ``s_1 = chol(sigma**2 P) z_1``, ``s_k = F_k s_{k-1} + Q_k^{1/2} z_k`` along the positions,
+    all `B x L` draws at once. ``F`` and the square root of ``Q`` (symmetric eigendecomposition,
+    exact at a zero step) are computed once per distinct step length, so a regular pitch costs a
+    few small factorisations; ``z_k`` (`B x L x p`) are drawn from ``generator`` position by
+    position, on the CPU.
+
+    Args:
+        x: `n` sorted positions [m].
+        kern: a kernel with ``state_space``.
+        sigma_a: `B` scales [µε]; length: `B` correlation lengths [m].
+        n_loads: `L`, independent draws per parameter vector.
+        generator: source of the standard normals.
     """
-    B, L, n, p = z.shape
-    F, Q, _ = _model(x, kern, sigma_a, length)
-    w, V = torch.linalg.eigh(Q)
-    root = V * w.clamp_min(0.0).sqrt()[..., None, :]  # B x n x p x p, root rootᵀ = Q
-    u = (root[:, None] @ z[..., None])[..., 0]  # B x L x n x p
-    A = F[:, None].expand(B, L, n, p, p).clone()
-    A[:, :, 0] = 0.0
-    A, u = A.reshape(B * L, n, p, p), u.reshape(B * L, n, p)
-    state = _affine_prefix(A, u)
-    return state[..., 0].reshape(B, L, n)
-
-
-def _affine_prefix(A: Tensor, u: Tensor) -> Tensor:
-    """States ``s_k = A_k s_{k-1} + u_k`` (``A_1 = 0``) along dimension 1, odd-even recursion."""
-    n = A.shape[1]
-    if n == 1:
-        return u
-    m = n // 2
-    A1, u1, A2, u2 = A[:, 0 : 2 * m : 2], u[:, 0 : 2 * m : 2], A[:, 1 : 2 * m : 2], u[:, 1 : 2 * m : 2]
-    pair_A, pair_u = A2 @ A1, (A2 @ u1[..., None])[..., 0] + u2
-    odd = _affine_prefix(pair_A, pair_u)  # states at 1, 3, 5, ...
-    even = (A[:, 2::2] @ odd[:, : (n - 1) // 2, :, None])[..., 0] + u[:, 2::2]
-    out = torch.empty_like(u)
-    out[:, 0], out[:, 1 : 2 * m : 2], out[:, 2::2] = u[:, 0], odd, even
+    B, n, p = sigma_a.shape[0], x.shape[0], kern.state_dim
+    step = torch.diff(x, prepend=x[:1])
+    values, index = torch.unique(step, return_inverse=True)
+    F, P = kern.state_space(values[None, :], length[:, None].clamp_min(0.0))  # B x U x p x p
+    P = P * sigma_a.square()[:, None, None, None]
+    Q = P - F @ P @ F.mT
+    roots = torch.cat([_root(P[:, :1]), _root(0.5 * (Q + Q.mT))], dim=1)  # B x (1 + U) x p x p
+    out = x.new_empty(B, n_loads, n)
+    state = x.new_zeros(B, n_loads, p)
+    for k, u in enumerate(index.tolist()):
+        z = torch.randn((B, n_loads, p), generator=generator, dtype=x.dtype).to(x.device)
+        noise = (roots[:, u + 1 if k else 0, None] @ z[..., None])[..., 0]
+        state = noise if k == 0 else (F[:, u, None] @ state[..., None])[..., 0] + noise
+        out[..., k] = state[..., 0]
     return out
+
+
+def _root(Q: Tensor) -> Tensor:
+    """Square roots ``R`` with ``R Rᵀ = Q`` of positive semidefinite `... x p x p` matrices."""
+    w, V = torch.linalg.eigh(Q)
+    return V * w.clamp_min(0.0).sqrt()[..., None, :]
