@@ -39,6 +39,7 @@ def test_split_fills_fixed_values_in_model_order() -> None:
     priors = {"E": Uniform(1.0, 2.0), "K": 7.0, "sigma_a": Uniform(0.0, 1.0), "length": 0.3}
     split = ParameterSplit.from_priors(priors, ["K", "E"], has_length=True)
     assert split.names == ("E", "sigma_a")
+    assert split.statistical_names == ("sigma_a", "length") and split.fixed == {"K": 7.0, "length": 0.3}
     theta_p, sigma_a, length = split.split(np.array([[1.5, 0.2], [1.7, 0.4]]))
     np.testing.assert_array_equal(theta_p.numpy(), [[7.0, 1.5], [7.0, 1.7]])
     np.testing.assert_array_equal(sigma_a.numpy(), [0.2, 0.4])

@@ -124,6 +124,11 @@ class ParameterSplit:
         names += [n for n in statistical if n in priors and n not in fixed]
         return cls(tuple(names), tuple(physical_names), fixed, has_length)
 
+    @property
+    def statistical_names(self) -> tuple[str, ...]:
+        """The discrepancy's parameters, inferred or fixed: ``sigma_a`` [, ``length``]."""
+        return STATISTICAL[: 2 if self.has_length else 1]
+
     def column(self, theta: object, name: str) -> Tensor:
         """Values `B` of parameter ``name`` (inferred or fixed) for parameter vectors `B x D`.
 
