@@ -130,3 +130,28 @@ def pitch_of(x: np.ndarray, tol: float) -> float | None:
     if np.ptp(steps) > tol:
         return None
     return float(np.round(steps.mean(), 9))
+
+
+def downsample_index(x: np.ndarray, parts: Mapping[Label, slice], resolution: float, tol: float) -> np.ndarray:
+    """Indices of every k-th point of each line from its first one, k = resolution / its pitch."""
+    if x.ndim != 1:
+        raise ValueError("measurements: cannot downsample a field given by coordinates (x is (n, d))")
+    keep = []
+    for label, s in parts.items():
+        if s.stop - s.start == 1:
+            keep.append(np.arange(s.start, s.stop))
+            continue
+        pitch = pitch_of(x[s], tol)
+        if pitch is None:
+            raise ValueError(
+                f"measurements: cannot downsample, positions x are not equally spaced{where(label)}"
+            )
+        ratio = resolution / pitch
+        k = int(round(ratio)) if np.isfinite(ratio) and np.isfinite(resolution) and resolution > 0 else 0
+        if k < 1 or abs(ratio - k) > 1e-6:
+            raise ValueError(
+                f"resolution {resolution:g} m is not a whole multiple of the pitch {pitch:g} m"
+                f"{where(label)}"
+            )
+        keep.append(np.arange(s.start, s.stop)[::k])
+    return np.concatenate(keep)

@@ -170,28 +170,7 @@ class Measurements:
             ValueError: for a 2-D/3-D field, unequally spaced positions or a resolution that is
                 not a whole multiple of a line's pitch.
         """
-        resolution = float(resolution)
-        if self.x.ndim != 1:
-            raise ValueError("measurements: cannot downsample a field given by coordinates (x is (n, d))")
-        keep = []
-        for label, s in self._blocks.items():
-            if s.stop - s.start == 1:
-                keep.append(np.arange(s.start, s.stop))
-                continue
-            pitch = _lines.pitch_of(self.x[s], POSITION_TOL)
-            if pitch is None:
-                raise ValueError(
-                    f"measurements: cannot downsample, positions x are not equally spaced{_lines.where(label)}"
-                )
-            ratio = resolution / pitch
-            k = int(round(ratio)) if np.isfinite(ratio) and np.isfinite(resolution) and resolution > 0 else 0
-            if k < 1 or abs(ratio - k) > 1e-6:
-                raise ValueError(
-                    f"resolution {resolution:g} m is not a whole multiple of the pitch {pitch:g} m"
-                    f"{_lines.where(label)}"
-                )
-            keep.append(np.arange(s.start, s.stop)[::k])
-        points = np.concatenate(keep)
+        points = _lines.downsample_index(self.x, self._blocks, float(resolution), POSITION_TOL)
         return self._with(self.y[:, points], self.loads, points)
 
     def equals(self, other: Measurements) -> bool:

@@ -195,7 +195,10 @@ def _in(f: OdisiFile, window: Sequence[object], what: str) -> np.ndarray:
         a, b = (v if isinstance(v, dt.datetime) else dt.datetime.fromisoformat(str(v)) for v in window)
     except (TypeError, ValueError):
         raise ValueError(f"read_odisi: window of {what} must be two date-times, got {window!r}") from None
-    rows = np.array([a <= t <= b for t in f.times])
+    try:
+        rows = np.array([a <= t <= b for t in f.times])
+    except TypeError:  # a time zone on one side only
+        raise ValueError(f"read_odisi: window of {what} and the file's times differ in time zone") from None
     if not rows.any():
         raise ValueError(f"read_odisi: no time-stamped row within the window of {what} ({a} to {b})")
     return rows
