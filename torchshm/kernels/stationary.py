@@ -20,7 +20,9 @@ SQRT3 = math.sqrt(3.0)
 SQRT5 = math.sqrt(5.0)
 
 
-def _state_space(rows: list[list[Tensor]], decay: Tensor, stationary: list[list[float]]) -> tuple[Tensor, Tensor]:
+def _state_space(
+    rows: list[list[Tensor]], decay: Tensor, stationary: list[list[float]]
+) -> tuple[Tensor, Tensor]:
     """Stack ``rows`` (polynomials of ``s``) into `... x p x p` transitions; the stationary
     covariance `p x p` of the scaled state (unit ``sigma``)."""
     F = torch.stack([torch.stack(r, dim=-1) for r in rows], dim=-2) * decay[..., None, None]

@@ -8,15 +8,15 @@ linear state ``s`` (dimension ``p`` = 1, 2, 3) that is Markov along the fibre::
 
 with ``F_k`` the closed-form transition over the step ``x_k - x_{k-1}`` (from the kernel's
 ``state_space``) and ``D_k > 0`` the diagonal of Eq. (21). The log density of ``y`` is the sum of
-the Kalman filter's innovation terms (prediction error decomposition). The filter is computed
-as a parallel associative scan (Särkkä and García-Fernández, 2021, "Temporal parallelization of
-Bayesian smoothers", IEEE TAC 66(1)): every position becomes a linear-Gaussian element, and
-pairs of elements are combined level by level (odd-even recursion, about ``2 n`` combinations in
-``2 log2 n`` vectorised torch steps). It is covariance-form, so a zero step (``F = I``,
-``Q = 0``, repeated positions) and lengths far above the span (``Q`` tiny) are exact and
-stable, and it is plain torch: differentiable by autograd, and runs on CUDA tensors.
+the Kalman filter's innovation terms (prediction error decomposition). The filter runs in
+blocks of about ``sqrt(n / 4)`` positions: each block is reduced to one filtering element of the parallel-scan formulation of Särkkä and
+García-Fernández (2021, "Temporal parallelization of Bayesian smoothers", IEEE TAC 66(1)), all
+blocks at once; the elements are applied block after block; then an ordinary filter runs
+inside all blocks at once (``docs/likelihood.md``). It is covariance-form, so a zero step
+(``F = I``, ``Q = 0``, repeated positions) and lengths far above the span (``Q`` tiny) are
+exact and stable, and it is plain torch: differentiable by autograd, and runs on CUDA tensors.
 
-Draws of ``f`` are the same recursion with sampled ``q_k``: an affine scan.
+Draws of ``f`` are the same recursion with sampled ``q_k`` (:func:`sample`).
 """
 
 from __future__ import annotations
@@ -168,7 +168,9 @@ def _filter(F: Tensor, Q: Tensor, y: Tensor, D: Tensor, seen: Tensor, m: Tensor,
     return torch.stack(terms)
 
 
-def sample(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, n_loads: int, generator: torch.Generator) -> Tensor:
+def sample(
+    x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, n_loads: int, generator: torch.Generator
+) -> Tensor:
     """Draws of the discrepancy ``f`` `B x L x n` at sorted positions ``x``, O(n) time.
 
     ``s_1 = chol(sigma**2 P) z_1``, ``s_k = F_k s_{k-1} + Q_k^{1/2} z_k`` along the positions,
