@@ -137,6 +137,14 @@ def _block_starts(elements: tuple[Tensor, ...], blocks: int) -> tuple[Tensor, Te
     block elements in turn (the first position's element ignores what it is given)."""
     A, b, C, h, J = elements  # p (x p) x G x B x L
     p, shape = b.shape[0], b.shape[1:]
+    if p == 1:  # scalar state: the same recursion without small-matrix calls
+        A, b, C, h, J = (e.expand(*e.shape[: e.ndim - 3], *shape).reshape(shape) for e in elements)
+        ms, Ps = [torch.zeros_like(b[0])], [torch.zeros_like(b[0])]
+        for g in range(blocks - 1):
+            gain = A[g] / (1.0 + Ps[-1] * J[g])
+            ms.append(gain * (ms[-1] + Ps[-1] * h[g]) + b[g])
+            Ps.append(gain * A[g] * Ps[-1] + C[g])
+        return torch.stack(ms)[None], torch.stack(Ps)[None, None]
     A, C, J = (e.expand(p, p, *shape).permute(2, 3, 4, 0, 1) for e in (A, C, J))
     b, h = b.permute(1, 2, 3, 0), h.permute(1, 2, 3, 0)  # G x B x L x p (x p)
     eye = torch.eye(p, dtype=b.dtype, device=b.device)
