@@ -147,11 +147,20 @@ def load_posterior(path: str | Path) -> Posterior:
     """Read a posterior written by :meth:`Posterior.save` (``problem`` is None afterwards).
 
     Raises:
-        ValueError: when ``path`` is not a torchshm posterior file.
+        FileNotFoundError: when ``path`` does not exist.
+        ValueError: when ``path`` is not a torchshm posterior file, or is truncated or
+            damaged (one line naming the file).
     """
     path = Path(path)
-    with xr.open_dataset(path, group="posterior", engine=ENGINE) as ds:
-        ds = ds.load()
+    if not path.is_file():
+        raise FileNotFoundError(f"no posterior file {path}")
+    try:
+        with xr.open_dataset(path, group="posterior", engine=ENGINE) as ds:
+            ds = ds.load()
+    except (OSError, ValueError, KeyError) as exc:  # h5py/h5netcdf: not HDF5, truncated, no group
+        first = next((line.strip() for line in str(exc).splitlines() if line.strip()), "")
+        raise ValueError(f"{path} is not a readable torchshm posterior file (truncated or "
+                         f"damaged?): {first or type(exc).__name__}") from None
     if ds.attrs.get("format") != "torchshm-posterior":
         raise ValueError(f"{path} is not a torchshm posterior file (no 'format' attribute)")
     names = json.loads(ds.attrs["names"])

@@ -126,7 +126,8 @@ class Surrogate:
             torch.save(state, temporary)
             os.replace(temporary, path)
         except (OSError, RuntimeError) as exc:  # torch reports a failed write as RuntimeError
-            temporary.unlink(missing_ok=True)
+            if temporary.is_file():
+                temporary.unlink()
             raise OSError(f"cannot write surrogate file {path}: {_first_line(exc)}") from None
 
     def state(self) -> dict[str, Any]:
