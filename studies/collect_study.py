@@ -51,7 +51,9 @@ def rebuild_problem(rec: study.RunRecord, post: Any, settings: dict[str, Any]) -
     store = rec.path / STORE_NAME
     if not store.exists():
         raise FileNotFoundError(f"{store} is missing: run the sweep with store=${{hydra:runtime.output_dir}}/{STORE_NAME}")
-    model = torchshm.bridge705() if settings["model"]["name"] == "fe" else torchshm.bridge705_surrogate()
+    from torchshm.cli.models import instantiate_model
+
+    model = instantiate_model(settings["model"], Path.cwd())
     meas = measurements_of(settings).select(rec.inference_loads)
     lik = settings["likelihood"]
     return torchshm.Problem(model, meas, kernel=rec.kernel, priors=post.priors, sigma_m=lik["sigma_m"],

@@ -96,7 +96,7 @@ def identify_with(settings: Config, measurements: Any, base: Path, log_dir: Path
     """Identify with ``settings.method`` on a fresh problem; ``extra`` adds method options."""
     import torchshm
 
-    problem = build_problem(settings, build_model(settings.model.name), measurements, base,
+    problem = build_problem(settings, build_model(settings, base), measurements, base,
                             build_priors(settings.priors))
     t0 = time.perf_counter()
     post = torchshm.identify(problem, method=settings.method.name.value, seed=settings.seed,

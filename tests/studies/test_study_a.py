@@ -16,7 +16,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 @pytest.mark.slow
 def test_study_a_smoke(tmp_path: Path) -> None:
-    args = ["--out", "runs/study_a", "--vbmc-max-fun-evals", "15", "--emcee-walkers", "8",
+    args = ["--out", "runs/study_a", "--vbmc-max-fun-evals", "20", "--emcee-walkers", "8",
             "--emcee-steps", "40", "--window", "80", "resolution=4"]
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     result = subprocess.run([sys.executable, str(REPO / "studies" / "study_a.py"), *args], cwd=tmp_path,
