@@ -25,6 +25,7 @@ class CountingModel:
     def __init__(self, model: object) -> None:
         self.model, self.x, self.loads = model, model.x, model.loads
         self.names = model.names
+        self.surrogate_transform = model.surrogate_transform  # the structure the model declares
         self.calls = 0
 
     def __call__(self, theta_p: torch.Tensor) -> torch.Tensor:
