@@ -21,7 +21,7 @@ def test_dense_pitch_truth_matches_the_shipped_truth_at_shared_points() -> None:
     from torchshm.data.campaign import _dense_strain, campaign_truth
 
     _, strain = _dense_strain(0.05)
-    np.testing.assert_allclose(strain[:, ::2], campaign_truth().strain, rtol=0.0, atol=1e-6)
+    np.testing.assert_allclose(strain[:, ::2], campaign_truth().strain, rtol=0.0, atol=1e-5)  # 6e-6 µε of 73 µε with default threads
     assert dense.attrs["truth_E_c"] == coarse.attrs["truth_E_c"]
 
 
