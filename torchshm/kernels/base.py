@@ -3,6 +3,10 @@
 A kernel here is stateless: its parameters, the scale ``sigma_a`` [µε] and the correlation
 length ``length`` [m], are passed at each call, so that one call builds the covariance matrices
 of a whole batch of parameter vectors (shape ``...``) at once.
+
+Positions are `n` arc lengths along a line (distance ``|x - x'|``) or `n x d` coordinates of a
+field such as an image-correlation grid (Euclidean distance ``||x - x'||``), see
+:func:`distances`. The 1-D case is computed exactly as before coordinates were accepted.
 """
 
 from __future__ import annotations
@@ -15,7 +19,7 @@ from torch import Tensor
 
 from torchshm.arrays import as_float64
 
-__all__ = ["MIN_LENGTH", "REGISTRY", "Kernel", "as_float64", "distances", "scaled_distance"]
+__all__ = ["MIN_LENGTH", "REGISTRY", "Kernel", "as_float64", "distances", "n_points", "scaled_distance"]
 
 #: name -> kernel class, in the order the classes were defined (filled by ``Kernel`` itself)
 REGISTRY: dict[str, type[Kernel]] = {}
@@ -27,8 +31,38 @@ MIN_LENGTH = 1e-9
 
 
 def distances(x1: Tensor, x2: Tensor) -> Tensor:
-    """Absolute distances `n x m` [m] between positions `x1` (`n`) and `x2` (`m`)."""
-    return (x1.unsqueeze(-1) - x2.unsqueeze(-2)).abs()
+    """Distances `n x m` [m] between positions `x1` and `x2`.
+
+    Args:
+        x1: `n` positions along a line, or `n x d` coordinates [m].
+        x2: `m` positions, or `m x d` coordinates [m] (the same form as ``x1``).
+
+    Returns:
+        ``|x1_i - x2_j|`` for positions, the Euclidean distance ``||x1_i - x2_j||`` for
+        coordinates (summed coordinate by coordinate, so the temporary is `n x m`, never
+        `n x m x d`; the square root is taken where the distance is positive, so gradients with
+        respect to the coordinates stay finite at coinciding points).
+
+    Raises:
+        ValueError: if ``x1`` and ``x2`` are not both `(n,)` or both `(n, d)` with the same `d`.
+    """
+    if x1.ndim == 1 and x2.ndim == 1:
+        return (x1.unsqueeze(-1) - x2.unsqueeze(-2)).abs()
+    if x1.ndim != 2 or x2.ndim != 2 or x1.shape[1] != x2.shape[1]:
+        raise ValueError(
+            f"kernel positions must be (n,) and (m,) or (n, d) and (m, d) coordinates, "
+            f"got x1 {tuple(x1.shape)} and x2 {tuple(x2.shape)}"
+        )
+    square = x1.new_zeros(x1.shape[0], x2.shape[0])
+    for k in range(x1.shape[1]):
+        square = square + (x1[:, k, None] - x2[None, :, k]).square()
+    positive = square > 0
+    return torch.where(positive, torch.where(positive, square, 1.0).sqrt(), 0.0)
+
+
+def n_points(x: Tensor) -> int:
+    """Number of points of `n` positions or `n x d` coordinates."""
+    return int(x.shape[0]) if x.ndim == 2 else int(x.shape[-1])
 
 
 class Kernel(ABC):
@@ -90,11 +124,11 @@ class Kernel(ABC):
         sigma_a: object = 1.0,
         length: object | None = None,
     ) -> Tensor:
-        """Covariance matrices ``K[..., i, j] = k(|x1_i - x2_j|)``.
+        """Covariance matrices ``K[..., i, j] = k(d(x1_i, x2_j))`` (:func:`distances`).
 
         Args:
-            x1: `n` positions [m].
-            x2: `m` positions [m]; ``None`` means ``x1``.
+            x1: `n` positions [m], or `n x d` coordinates [m] (Euclidean distance).
+            x2: `m` positions or `m x d` coordinates [m]; ``None`` means ``x1``.
             sigma_a: scale [µε], shape `...` (a scalar for one matrix).
             length: correlation length [m], broadcastable with ``sigma_a``; ignored (may be
                 ``None``) when :attr:`has_length` is false.
@@ -110,10 +144,10 @@ class Kernel(ABC):
         return sigma_a[..., None, None].square() * self.correlation(d, ell)
 
     def diag(self, x: object, *, sigma_a: object = 1.0) -> Tensor:
-        """Diagonal `... x n` of ``self(x, sigma_a=sigma_a, length=...)`` [µε²]."""
+        """Diagonal `... x n` of ``self(x, sigma_a=sigma_a, length=...)`` [µε²] (`x`: `n` or `n x d`)."""
         x = as_float64(x)
         sigma_a = as_float64(sigma_a)
-        return sigma_a[..., None].square().expand(*sigma_a.shape, x.shape[-1])
+        return sigma_a[..., None].square().expand(*sigma_a.shape, n_points(x))
 
     def _parameters(self, sigma_a: object, length: object | None) -> tuple[Tensor, Tensor | None]:
         """``sigma_a`` and ``length`` as float64 tensors broadcast to a common shape."""
