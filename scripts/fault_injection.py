@@ -17,6 +17,8 @@ killed jobs are restarted, until the kills are spent and every job finishes. Rep
 * kills, and model calls in flight at a kill (started by a killed process, never stored);
 * runs repeated beyond in flight: model calls that began while the store already held that
   θp (observed by the model itself; must be 0);
+* runs duplicated beyond in flight: calls of a θp beyond its first that no kill explains
+  (two live processes running the same θp at once; must be 0: the store's claims prevent it);
 * integrity failures over every check (:func:`torchshm.storage.integrity.check_store`: SQLite
   ``integrity_check``, each row's checksum, the spool; must be 0);
 * the final posterior vs the uninterrupted one: the largest difference of a mean, in
@@ -157,11 +159,13 @@ def _calls(log: Path, store: Path, events: list[dict]) -> dict[str, int]:
     with sqlite3.connect(store) as con:
         stored = {(key, pid) for key, pid in con.execute("SELECT theta_key, pid FROM evaluations")}
     killed = {pid for event in events for pid in event["pids"]}
-    in_flight = sum(1 for key, pids in starts.items() for pid in pids
-                    if pid in killed and (key, pid) not in stored)
+    lost = {key: sum(1 for pid in pids if pid in killed and (key, pid) not in stored)
+            for key, pids in starts.items()}
     n_calls = sum(len(pids) for pids in starts.values())
+    duplicated = sum(max(0, len(pids) - 1 - lost[key]) for key, pids in starts.items())
     return {"calls": n_calls, "distinct": len(starts), "extra_calls": n_calls - len(starts),
-            "in_flight_at_kills": in_flight, "repeated_beyond_in_flight": repeated}
+            "in_flight_at_kills": sum(lost.values()), "repeated_beyond_in_flight": repeated,
+            "duplicated_beyond_in_flight": duplicated}
 
 
 def compare(job: str, got: dict, ref: dict, exact: tuple[np.ndarray, np.ndarray]) -> dict:
@@ -237,7 +241,8 @@ def main(argv: list[str] | None = None) -> int:
     print(text)
     if args.json is not None:
         args.json.write_text(text)
-    failed = report["repeated_beyond_in_flight"] or report["integrity_failures"]
+    failed = (report["repeated_beyond_in_flight"] or report["duplicated_beyond_in_flight"]
+              or report["integrity_failures"])
     return 1 if failed else 0
 
 

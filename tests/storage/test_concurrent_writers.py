@@ -58,7 +58,7 @@ def test_two_processes_overlapping_and_distinct_theta(tmp_path: Path) -> None:
     assert len(pids) == 2 and _overlap(records, pids)  # the two writers really overlapped
     ends = [(key, pid) for what, key, pid in read_counter(str(counter)) if what == "end"]
     calls = collections.Counter(key for key, _ in ends)
-    assert len(calls) == 45  # rows 15..29 may run in both; every result is kept once
+    assert len(calls) == 45 and len(ends) == 45  # rows 15..29 are wanted by both, run by one
     print(f"model runs: {len(ends)} ({collections.Counter(pid for _, pid in ends)} per process), "
           f"run twice: {sum(n > 1 for n in calls.values())}, stored: {len(records)}")
     reference = evaluate(model, theta)

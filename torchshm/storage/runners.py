@@ -5,8 +5,9 @@ soon as it exists, from the process that ran it: in process and with joblib the 
 commits to the SQLite file itself; a submitit job (possibly on another machine) deposits its
 result in the store's spool folder. Scheduling is left to joblib and submitit.
 
-In process and with joblib, the store is asked again just before each model call, so a run
-that another process finished meanwhile (two studies sharing a store) is not repeated.
+In process and with joblib, the store is asked again just before each model call and the θp
+is claimed (:mod:`torchshm.storage.claims`), so a run that another process finished meanwhile
+or is running now (several studies sharing a store) is not repeated.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import joblib
 import submitit
 from joblib.externals.loky.process_executor import TerminatedWorkerError
 
+from torchshm.storage import claims
 from torchshm.storage.keys import key_theta
 from torchshm.storage.record import Record, now_utc, run_model
 from torchshm.storage.store import EvaluationStore
@@ -138,14 +140,28 @@ def _job_error(exc: BaseException) -> str:
 
 
 def _run_and_save(task: Task, key: str) -> tuple[Record, bool]:
-    """Run one key unless the store got it meanwhile; returns the record and whether it ran."""
-    if task.store is not None:
-        found = task.store.lookup(task.identity, [key]).get(key)
-        if found is not None and (found.ok or not task.retry_failed):
+    """Run one key unless the store got it meanwhile; returns the record and whether it ran.
+
+    With a store, the key is claimed first (:mod:`torchshm.storage.claims`): if another process
+    is running it, this one waits for that result instead of running the model again.
+    """
+    store = task.store
+    if store is None:
+        return run_model(task.model, task.identity, key, key_theta(key), task.shape), True
+    found = store.lookup(task.identity, [key]).get(key)
+    if found is not None and (found.ok or not task.retry_failed):
+        return found, False
+    if claims.wait_for_claim(store, task.identity, key, not task.retry_failed) == "done":
+        found = store.lookup(task.identity, [key]).get(key)
+        if found is not None:
             return found, False
-    record = run_model(task.model, task.identity, key, key_theta(key), task.shape)
-    if task.store is not None:
-        task.store.save(record)
+    record = None
+    try:
+        record = run_model(task.model, task.identity, key, key_theta(key), task.shape)
+    finally:  # a signal landing just after the run still lets the finished run be kept
+        if record is not None:
+            store.save(record)
+        claims.release(store, task.identity, key)
     return record, True
 
 

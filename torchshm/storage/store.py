@@ -62,6 +62,9 @@ CREATE TABLE IF NOT EXISTS evaluations (
     error TEXT, wall_time_s REAL, finished_at TEXT, host TEXT, pid INTEGER, traceback TEXT,
     PRIMARY KEY (model, theta_key));
 CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS claims (
+    model TEXT NOT NULL, theta_key TEXT NOT NULL, host TEXT NOT NULL, pid INTEGER NOT NULL,
+    started TEXT NOT NULL, claimed_at REAL NOT NULL, PRIMARY KEY (model, theta_key));
 INSERT OR IGNORE INTO meta VALUES ('schema_version', '{SCHEMA_VERSION}');
 """
 # An ok evaluation is never overwritten; a failed one is replaced by any newer result.
