@@ -58,7 +58,8 @@ def log_likelihood(
     Args:
         y: `L x n` measured strains [µε].
         eta: `... x L x n` model predictions [µε] (differentiable).
-        x: `n` positions [m].
+        x: `n` positions [m], or `n x d` coordinates [m] of a field (dense covariance of a
+            kernel that takes coordinates; see :mod:`torchshm.likelihood.blocks`).
         kernel: a name from :data:`torchshm.kernels.KERNELS` or a :class:`Kernel`.
         sigma_a: discrepancy scale [µε], broadcastable to `...` (differentiable).
         length: correlation length [m], broadcastable to `...` (differentiable); ignored (may
@@ -97,7 +98,8 @@ def log_likelihood(
     n_batch = math.prod(batch)
     eta_f = eta.expand(*batch, *y.shape).reshape(n_batch, *y.shape)
     sa_f, ell_f = sa.expand(batch).reshape(n_batch), ell.expand(batch).reshape(n_batch)
-    form = choose_method(kern, y.shape[1], method, noise_positive=sigma_e > 0)
+    dim = 1 if x.ndim == 1 else x.shape[1]
+    form = choose_method(kern, y.shape[1], method, noise_positive=sigma_e > 0, dim=dim)
     matrices = 1 if sigma_m == 0.0 else y.shape[0]  # covariances per parameter vector
     per_vector = matrices * y.shape[1] ** 2 * 8 if form == "dense" else y.numel() * 8
     step = max(1, (CHUNK_BYTES if form == "dense" else STATE_SPACE_CHUNK_BYTES) // per_vector)
@@ -113,7 +115,7 @@ def log_likelihood(
 
 
 def _check_shapes(y: Tensor, eta: Tensor, x: Tensor) -> None:
-    """Raise ``ValueError`` unless ``y`` is `L x n`, ``eta`` `... x L x n` and ``x`` `n`."""
+    """Raise ``ValueError`` unless ``y`` is `L x n`, ``eta`` `... x L x n` and ``x`` `n` or `n x d`."""
     if y.ndim != 2 or 0 in y.shape:
         raise ValueError(f"log_likelihood: y must have shape (L, n), L, n >= 1, got {tuple(y.shape)}")
     if eta.ndim < 2 or eta.shape[-2:] != y.shape:
@@ -121,8 +123,10 @@ def _check_shapes(y: Tensor, eta: Tensor, x: Tensor) -> None:
             f"log_likelihood: eta must have shape (..., {y.shape[0]}, {y.shape[1]}) like y, "
             f"got {tuple(eta.shape)}"
         )
-    if x.shape != (y.shape[1],):
-        raise ValueError(f"log_likelihood: x must have shape ({y.shape[1]},), got {tuple(x.shape)}")
+    if x.shape != (y.shape[1],) and not (x.ndim == 2 and x.shape[0] == y.shape[1] and x.shape[1] >= 1):
+        raise ValueError(
+            f"log_likelihood: x must have shape ({y.shape[1]},) or ({y.shape[1]}, d), got {tuple(x.shape)}"
+        )
 
 
 def _check_scale(name: str, value: float) -> float:

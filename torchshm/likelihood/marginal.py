@@ -56,12 +56,15 @@ def covariance(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: 
     return cov
 
 
-def choose_method(kern: Kernel, n: int, method: str = "auto", noise_positive: bool = True) -> str:
+def choose_method(
+    kern: Kernel, n: int, method: str = "auto", noise_positive: bool = True, dim: int = 1
+) -> str:
     """``"diagonal"``, ``"dense"`` or ``"state_space"`` for `n` points per load case.
 
     ``"auto"`` takes the state space only when the diagonal of Eq. (21) is known to be
     positive (``noise_positive``, i.e. ``sigma_e > 0``), which the state-space form needs at
-    repeated positions.
+    repeated positions, and only for 1-D positions (``dim == 1``); `n x d` coordinates
+    (``dim = d > 1``) are dense.
 
     Raises:
         ValueError: for an unknown method, ``"state_space"`` with a kernel that has none, or a
@@ -73,9 +76,10 @@ def choose_method(kern: Kernel, n: int, method: str = "auto", noise_positive: bo
         return "diagonal"
     if method == "diagonal":
         raise ValueError(f"kernel {kern.name!r} is not diagonal; use method='auto' or 'dense'")
-    markov = statespace.is_markov(kern)
+    markov = statespace.is_markov(kern) and dim == 1
     if method == "state_space" and not markov:
-        raise ValueError(f"kernel {kern.name!r} has no state-space form; use method='dense'")
+        what = f"kernel {kern.name!r}" if dim == 1 else f"{dim}-D coordinates"
+        raise ValueError(f"{what}: no state-space form; use method='dense'")
     if method == "state_space" or (method == "auto" and markov and noise_positive and n >= STATE_SPACE_FROM):
         return "state_space"
     need, have = 2 * 8 * n * n, _physical_memory()
@@ -102,7 +106,7 @@ class Eq21:
 
     Attributes:
         eta: `B x L x n` model responses [µε].
-        x: `n` positions [m].
+        x: `n` positions [m], or `n x d` coordinates [m] (dense or diagonal forms only).
         kern: the discrepancy kernel.
         sigma_a: `B` discrepancy scales [µε]; length: `B` correlation lengths [m].
         sigma_m: multiplicative model error (dimensionless); sigma_e: noise sd [µε].
@@ -119,7 +123,7 @@ class Eq21:
     method: str = "auto"
 
     def __post_init__(self) -> None:
-        self.method = choose_method(self.kern, self.x.shape[0], self.method)
+        self.method = choose_method(self.kern, self.x.shape[0], self.method, dim=_dim(self.x))
 
     def log_prob(self, y: Tensor) -> Tensor:
         """Log densities `B` of ``y`` (`L x n`), summed over load cases; -inf where a dense
@@ -128,7 +132,7 @@ class Eq21:
         resid = y - self.eta
         noise = self.sigma_e**2 + self.sigma_m**2 * self.eta.square()  # B x L x n
         if self.method == "diagonal":
-            var = self.kern.diag(self.x, sigma_a=self.sigma_a)[:, None, :] + noise
+            var = self.kern.diag(_points(self.x), sigma_a=self.sigma_a)[:, None, :] + noise
             singular = (var <= 0).any(-1).any(-1)
             var = torch.where(var > 0, var, 1.0)
             terms = resid.square() / var + var.log() + LOG_2PI
@@ -169,7 +173,7 @@ class Eq21:
             return out
         z2 = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
         if self.method == "diagonal":
-            sd = (self.kern.diag(x, sigma_a=self.sigma_a) + self.sigma_e**2).sqrt()  # B x n
+            sd = (self.kern.diag(_points(x), sigma_a=self.sigma_a) + self.sigma_e**2).sqrt()  # B x n
             return out + sd[:, None, :] * z2
         n = x.shape[0]
         step = max(1, SAMPLE_CHUNK_BYTES // (n * n * 8))
@@ -186,3 +190,13 @@ class Eq21:
     def _order(self) -> Tensor:
         """Indices that sort the positions (the state space runs along ascending ``x``)."""
         return torch.argsort(self.x, stable=True)
+
+
+def _dim(x: Tensor) -> int:
+    """Dimension of positions `n` (1) or coordinates `n x d` (d)."""
+    return 1 if x.ndim == 1 else int(x.shape[-1])
+
+
+def _points(x: Tensor) -> Tensor:
+    """`n` values standing for the `n` points of ``x`` (the diagonal needs their number only)."""
+    return x if x.ndim == 1 else x[:, 0]

@@ -7,6 +7,7 @@ vector splits into the model's and the discrepancy's parameters (:class:`Paramet
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import numbers
 from collections.abc import Mapping, Sequence
@@ -24,7 +25,10 @@ STATISTICAL = ("sigma_a", "length")
 
 
 def read_priors(
-    priors: Mapping[str, object], kernel: Kernel, model_names: Sequence[str] | None
+    priors: Mapping[str, object],
+    kernel: Kernel,
+    model_names: Sequence[str] | None,
+    groups: Sequence[object] = (),
 ) -> tuple[dict[str, Prior | float], list[str]]:
     """Validated priors and the physical parameter names, in the order the model takes them.
 
@@ -33,6 +37,9 @@ def read_priors(
         kernel: the discrepancy kernel; a ``length`` entry is dropped when it has no length.
         model_names: the model's parameter names (``model.names``) when it declares them;
             the physical names then follow the model's order.
+        groups: line labels with their own discrepancy parameters (``sigma_a[top]``,
+            ``length[top]``...); empty: one ``sigma_a`` [, ``length``] shared by every line. An
+            entry ``sigma_a[top]`` falls back on ``sigma_a`` when not given.
 
     Returns:
         ``(priors, physical_names)``.
@@ -45,14 +52,25 @@ def read_priors(
     """
     out: dict[str, Prior | float] = {}
     for name, value in priors.items():
-        if name == "length" and not kernel.has_length:
+        if statistical_base(str(name)) == "length" and not kernel.has_length:
             continue
         out[str(name)] = _prior_or_value(str(name), value)
-    for name in STATISTICAL[: 2 if kernel.has_length else 1]:
-        if name not in out:
-            raise ValueError(f"priors: no entry for {name!r}, needed by kernel {kernel.name!r}")
-        _check_scale(name, out[name])
-    physical = [name for name in out if name not in STATISTICAL]
+    bases = STATISTICAL[: 2 if kernel.has_length else 1]
+    for base in bases:
+        for name in [base] if not groups else [grouped_name(base, g) for g in groups]:
+            if name not in out and base in out:
+                out[name] = out[base]
+            if name not in out:
+                raise ValueError(f"priors: no entry for {name!r}, needed by kernel {kernel.name!r}")
+            _check_scale(name, out[name])
+        if groups:
+            out.pop(base, None)
+    wanted = {grouped_name(b, g) for b in bases for g in groups} if groups else set(bases)
+    stray = [n for n in out if statistical_base(n) is not None and n not in wanted]
+    if stray:
+        lines = f"lines {list(groups)}" if groups else "one shared pair (discrepancy='shared')"
+        raise ValueError(f"priors: entry {stray[0]!r} does not fit the discrepancy parameters of {lines}")
+    physical = [name for name in out if statistical_base(name) is None]
     if model_names is not None:
         model_names = [str(n) for n in model_names]
         unknown = [n for n in physical if n not in model_names]
@@ -68,6 +86,18 @@ def read_priors(
     if not physical:
         raise ValueError("priors: no physical parameter (every entry is sigma_a or length)")
     return out, physical
+
+
+def grouped_name(base: str, group: object) -> str:
+    """``sigma_a[top]``: the parameter ``base`` of line ``group``."""
+    return f"{base}[{group}]"
+
+
+def statistical_base(name: str) -> str | None:
+    """``"sigma_a"`` or ``"length"`` for that parameter, shared or of one line (``sigma_a[top]``);
+    ``None`` for a physical parameter."""
+    base = name.split("[", 1)[0] if name.endswith("]") else name
+    return base if base in STATISTICAL else None
 
 
 def _check_scale(name: str, value: Prior | float) -> None:
@@ -105,29 +135,37 @@ class ParameterSplit:
             ones included).
         fixed: name -> value of every fixed parameter (physical or statistical).
         has_length: whether the discrepancy kernel has a length scale.
+        groups: line labels with their own (σa, l), in column order; empty: one shared pair.
     """
 
     names: tuple[str, ...]
     physical_names: tuple[str, ...]
     fixed: Mapping[str, float]
     has_length: bool
+    groups: tuple[object, ...] = ()
 
     @classmethod
     def from_priors(
-        cls, priors: Mapping[str, object], physical_names: Sequence[str], has_length: bool
+        cls, priors: Mapping[str, object], physical_names: Sequence[str], has_length: bool,
+        groups: Sequence[object] = (),
     ) -> ParameterSplit:
         """The split of validated priors (see :func:`read_priors`): entries that are numbers
-        are fixed, the others inferred (physical first, then ``sigma_a`` and ``length``)."""
+        are fixed, the others inferred (physical first, then ``sigma_a`` and ``length``, line
+        by line with ``groups``)."""
         fixed = {n: float(v) for n, v in priors.items() if _is_number(v)}  # type: ignore[arg-type]
-        statistical = STATISTICAL[: 2 if has_length else 1]
+        split = cls((), tuple(physical_names), fixed, has_length, tuple(groups))
         names = [n for n in physical_names if n not in fixed]
-        names += [n for n in statistical if n in priors and n not in fixed]
-        return cls(tuple(names), tuple(physical_names), fixed, has_length)
+        names += [n for n in split.statistical_names if n in priors and n not in fixed]
+        return dataclasses.replace(split, names=tuple(names))
 
     @property
     def statistical_names(self) -> tuple[str, ...]:
-        """The discrepancy's parameters, inferred or fixed: ``sigma_a`` [, ``length``]."""
-        return STATISTICAL[: 2 if self.has_length else 1]
+        """The discrepancy's parameters, inferred or fixed: ``sigma_a`` [, ``length``], or
+        ``sigma_a[g]`` [, ``length[g]``] for each group ``g``."""
+        bases = STATISTICAL[: 2 if self.has_length else 1]
+        if not self.groups:
+            return bases
+        return tuple(grouped_name(b, g) for g in self.groups for b in bases)
 
     def column(self, theta: object, name: str) -> Tensor:
         """Values `B` of parameter ``name`` (inferred or fixed) for parameter vectors `B x D`.
@@ -150,11 +188,27 @@ class ParameterSplit:
     def split(self, theta: object) -> tuple[Tensor, Tensor, Tensor | None]:
         """``(theta_p `B x P`, sigma_a `B` [µε], length `B` [m] or None)`` of rows `B x D`.
 
-        ``length`` is ``None`` for a kernel without length. Differentiable in ``theta``.
+        ``length`` is ``None`` for a kernel without length; with :attr:`groups`, ``sigma_a``
+        and ``length`` are `B x G`, one column per group. Differentiable in ``theta``.
         """
         rows = as_float64(theta)
+        if self.groups:
+            sigma_a, length = self.discrepancy(rows)
+            return self.physical(rows), sigma_a, length
         length = self.column(rows, "length") if self.has_length else None
         return self.physical(rows), self.column(rows, "sigma_a"), length
+
+    def discrepancy(self, theta: object) -> tuple[Tensor, Tensor | None]:
+        """``(sigma_a `B x G` [µε], length `B x G` [m] or None)`` of rows `B x D`: one column
+        per group (`G` = 1 without groups)."""
+        rows = as_float64(theta)
+        groups = self.groups or (None,)
+
+        def columns(base: str) -> Tensor:
+            names = [base if g is None else grouped_name(base, g) for g in groups]
+            return torch.stack([self.column(rows, n) for n in names], dim=-1)
+
+        return columns("sigma_a"), columns("length") if self.has_length else None
 
 
 def _is_number(value: object) -> bool:

@@ -20,8 +20,9 @@ from torch import Tensor
 from torchshm.data.positions import match_positions
 from torchshm.kernels import Kernel, get_kernel
 from torchshm.arrays import as_float64, as_numpy
-from torchshm.likelihood.gaussian import log_likelihood
+from torchshm.likelihood.blocks import blocks_log_likelihood, make_blocks
 from torchshm.priors import Prior, paper_priors
+from torchshm.problem.matching import match_measured
 from torchshm.problem.parameters import ParameterSplit, read_priors
 from torchshm.problem.prior import JointPrior
 from torchshm.storage.cached_model import CachedModel
@@ -36,9 +37,13 @@ class Problem:
 
     Args:
         model: forward model ``model(theta_p) -> ... x L_model x n_model`` [µε] with attributes
-            ``x`` and ``loads`` (and optionally ``names``, its parameter names).
+            ``x`` and ``loads`` (and optionally ``names``, its parameter names, and ``line``,
+            `n_model` line labels beside ``x`` for a model of several sensor lines).
         measurements: a :class:`~torchshm.data.Measurements` (``x``, ``y``, ``loads``,
-            ``sigma_e``); its loads and positions must be among the model's (within 1e-6 m).
+            ``sigma_e``, ``line``, ``mask``); its loads must be among the model's (within
+            1e-6 m), its positions too (``match``). Each line's valid readings of a load case
+            are one independent block of Eq. (21) (:mod:`torchshm.likelihood.blocks`); masked
+            readings are left out of their own load case's block.
         kernel: discrepancy kernel name (:data:`torchshm.kernels.KERNELS`) or instance.
         priors: name -> :class:`~torchshm.priors.Prior` or a number (fixes the parameter);
             ``None`` means :func:`~torchshm.priors.paper_priors`. Entries other than ``sigma_a``
@@ -46,10 +51,17 @@ class Problem:
             ``model.names`` order when the model declares names). A ``length`` entry is dropped
             for a kernel without length.
         sigma_m: standard deviation of the multiplicative model error, >= 0.
-        sigma_e: measurement noise [µε], >= 0; ``None`` means ``measurements.sigma_e``.
+        sigma_e: measurement noise [µε], >= 0, for every line; ``None`` means
+            ``measurements.sigma_e`` (per line when the measurements give one per line).
         store: path of an evaluation store or an ``EvaluationStore``; every model evaluation
             goes through :func:`torchshm.storage.evaluate` and is persisted there. ``None``
             keeps the evaluations in this process (:mod:`torchshm.storage.cache`).
+        match: how measured positions map onto the model's, line by line: ``"exact"`` (each
+            is one of the model's on its line, within 1e-6 m) or ``"interpolate"`` (linear
+            interpolation along the line, no extrapolation); see :mod:`torchshm.problem.matching`.
+        discrepancy: ``"shared"`` (one σa and l for every line) or ``"per_line"`` (parameters
+            ``sigma_a[<line>]`` and ``length[<line>]``; a prior given for ``sigma_a`` or
+            ``length`` serves every line without its own entry).
 
     Attributes:
         names: the `D` inferred parameters (physical first, then ``sigma_a`` [, ``length``]).
@@ -74,31 +86,58 @@ class Problem:
         sigma_m: float = 0.05,
         sigma_e: float | None = None,
         store: str | PathLike[str] | Any | None = None,
+        *,
+        match: str = "exact",
+        discrepancy: str = "shared",
     ) -> None:
         self.model = model
         self.measurements = measurements
-        if getattr(measurements, "line", None) is not None or getattr(measurements, "n_missing", 0) \
-                or np.ndim(measurements.x) != 1:
-            raise ValueError(
-                "Problem: measurements with sensor lines, (n, d) coordinates or masked readings are not "
-                "used by the likelihood yet; give one fibre with every reading valid"
-            )
+        if discrepancy not in ("shared", "per_line"):
+            raise ValueError(f"Problem: discrepancy must be 'shared' or 'per_line', got {discrepancy!r}")
         self.kernel = get_kernel(kernel)
         self.sigma_m = _scale("sigma_m", sigma_m)
-        self.sigma_e = _scale("sigma_e", measurements.sigma_e if sigma_e is None else sigma_e)
+        lines = list(measurements.line_slices()) if hasattr(measurements, "line_slices") else [None]
+        self.sigma_e = _noise(measurements, lines, sigma_e)
+        groups = lines if discrepancy == "per_line" and lines != [None] else []
         self.priors, self.physical_names = read_priors(
-            paper_priors() if priors is None else priors, self.kernel, getattr(model, "names", None)
+            paper_priors() if priors is None else priors, self.kernel, getattr(model, "names", None), groups
         )
         self.split = ParameterSplit.from_priors(
-            self.priors, self.physical_names, self.kernel.has_length
+            self.priors, self.physical_names, self.kernel.has_length, groups
         )
         self.names = list(self.split.names)
         self.prior = JointPrior(self.priors, self.names)
         self.load_index = match_positions(measurements.loads, as_numpy(model.loads), "load case")
-        self.x_index = match_positions(measurements.x, as_numpy(model.x), "position")
+        self.positions = match_measured(measurements, model, match)
         self._y = torch.as_tensor(np.asarray(measurements.y, dtype=np.float64))
         self._x = torch.as_tensor(np.asarray(measurements.x, dtype=np.float64))
+        mask = getattr(measurements, "mask", np.ones(self._y.shape, dtype=bool))
+        slices = measurements.line_slices() if hasattr(measurements, "line_slices") else {None: slice(0, self._x.shape[0])}
+        self.blocks = make_blocks(
+            self._x, mask, slices, self.sigma_e, {g: i for i, g in enumerate(groups)} if groups else None
+        )
         self._model = CachedModel(model, store)
+
+    @property
+    def x_index(self) -> np.ndarray:
+        """`n` indices into ``model.x`` of the measured positions (``match="exact"`` only).
+
+        Raises:
+            ValueError: when the positions are interpolated (use :meth:`at_measured`).
+        """
+        if not self.positions.exact:
+            raise ValueError("Problem.x_index: positions are interpolated (match='interpolate'); use at_measured()")
+        return self.positions.left
+
+    @property
+    def n_lines(self) -> int:
+        """Number of measured sensor lines."""
+        return len({b.line for b in self.blocks})
+
+    def at_measured(self, outputs: Tensor) -> Tensor:
+        """Model strains `B x L x n` at the measured load cases and positions from outputs
+        `B x L_model x n_model` [µε] (exact or interpolated, :attr:`positions`)."""
+        return self.positions.apply(outputs[:, self.load_index])
 
     # ------------------------------------------------------------------ bounds and prior
     @property
@@ -145,14 +184,12 @@ class Problem:
 
     def _log_likelihood(self, rows: Tensor) -> Tensor:
         """Log-likelihoods `B` of parameter vectors `B x D` inside the support."""
-        theta_p, sigma_a, length = self.split.split(rows)
-        outputs = self.model_outputs(theta_p)
-        eta = outputs[:, self.load_index][:, :, self.x_index]
+        theta_p = self.split.physical(rows)
+        sigma_a, length = self.split.discrepancy(rows)
+        eta = self.at_measured(self.model_outputs(theta_p))
         finite = torch.isfinite(eta).all(-1).all(-1)
         eta = torch.where(finite[:, None, None], eta, 0.0)
-        value = log_likelihood(
-            self._y, eta, self._x, self.kernel, sigma_a, length, self.sigma_m, self.sigma_e
-        )
+        value = blocks_log_likelihood(self._y, eta, self.blocks, self.kernel, sigma_a, length, self.sigma_m)
         return torch.where(finite, _nan_to_neg_inf(value), -torch.inf)
 
     def _where_rows(self, flat: Tensor, mask: Tensor, fn: Any) -> Tensor:
@@ -207,12 +244,22 @@ class Problem:
     def __repr__(self) -> str:
         return (
             f"Problem(kernel={self.kernel.name!r}, names={self.names}, "
-            f"loads={len(self.load_index)}, n={len(self.x_index)})"
+            f"loads={len(self.load_index)}, n={self._x.shape[0]})"
         )
 
 
 def _nan_to_neg_inf(value: Tensor) -> Tensor:
     return torch.where(torch.isnan(value), -torch.inf, value)
+
+
+def _noise(measurements: Any, lines: list, sigma_e: float | None) -> float | dict:
+    """The noise level [µε]: one number, or line label -> number when the data give one per line."""
+    if sigma_e is not None:
+        return _scale("sigma_e", sigma_e)
+    given = measurements.sigma_e
+    if isinstance(given, Mapping):
+        return {label: _scale(f"sigma_e of line {label!r}", given[label]) for label in lines}
+    return _scale("sigma_e", given)
 
 
 def _scale(name: str, value: object) -> float:
