@@ -25,10 +25,15 @@ def test_protocol_identity_and_shape() -> None:
     assert model_identity(model) == "linear-v1"
 
 
-def test_output_shape_needs_one_dimensional_x_and_loads() -> None:
+def test_output_shape_needs_positions_or_coordinates_and_one_dimensional_loads() -> None:
     model = _Linear()
-    model.x = torch.zeros(2, 2)
-    with pytest.raises(ValueError, match=r"'x' must be one-dimensional, got shape \(2, 2\)"):
+    model.x = torch.zeros(4, 2)  # (n, d) coordinates of a field
+    assert output_shape(model) == (2, 4)
+    model.x = torch.zeros(2, 2, 2)
+    with pytest.raises(ValueError, match=r"'x' must be \(n,\) positions or \(n, d\) coordinates, got shape \(2, 2, 2\)"):
+        output_shape(model)
+    model.x, model.loads = torch.zeros(4), torch.zeros(2, 2)
+    with pytest.raises(ValueError, match=r"'loads' must be one-dimensional, got shape \(2, 2\)"):
         output_shape(model)
     del model.loads
     with pytest.raises(ValueError, match="has no attribute 'loads'"):

@@ -19,7 +19,8 @@ class ForwardModel(Protocol):
     """Structural protocol of a forward model.
 
     Attributes:
-        x: `n` sensor positions along the fibre [m], float64.
+        x: `n` sensor positions along the fibre [m], or `n x d` coordinates [m] of a field
+            (e.g. image correlation), float64.
         loads: `L` load cases, identified by the truck's front-axle position [m], float64.
     """
 
@@ -58,7 +59,8 @@ def output_shape(model: object) -> tuple[int, int]:
     """Shape `(L_model, n_model)` of the strains a forward model returns for one θp.
 
     Raises:
-        ValueError: if the model lacks ``x`` or ``loads`` or they are not one-dimensional.
+        ValueError: if the model lacks ``x`` or ``loads``, ``loads`` is not one-dimensional or
+            ``x`` is neither `n` positions nor `n x d` coordinates.
     """
     sizes = []
     for name in ("loads", "x"):
@@ -66,9 +68,10 @@ def output_shape(model: object) -> tuple[int, int]:
         if values is None:
             raise ValueError(f"forward model {type(model).__name__} has no attribute {name!r}")
         array = as_tensor(values)
-        if array.ndim != 1:
+        if array.ndim != 1 and not (name == "x" and array.ndim == 2):
+            shape = "one-dimensional" if name == "loads" else "(n,) positions or (n, d) coordinates"
             raise ValueError(
-                f"forward model {type(model).__name__}: {name!r} must be one-dimensional, "
+                f"forward model {type(model).__name__}: {name!r} must be {shape}, "
                 f"got shape {tuple(array.shape)}"
             )
         sizes.append(int(array.shape[0]))
