@@ -23,7 +23,8 @@ Then the O(n) state-space form (``docs/likelihood.md``):
 
 Usage::
 
-    python scripts/bench_likelihood.py [--repeats 20] [--slow-repeats 3] [--seed 0] [--only-dense]
+    python scripts/bench_likelihood.py [--repeats 20] [--slow-repeats 3] [--seed 0]
+        [--only-dense | --only-scaling | --only-celerite]
 """
 
 from __future__ import annotations
@@ -224,6 +225,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--only-dense", action="store_true", help="only the O(n) (dense fibre) part")
     parser.add_argument("--only-scaling", action="store_true", help="only n = 10^3 .. 10^6")
+    parser.add_argument("--only-celerite", action="store_true", help="only n = 10^5 x 12 beside celerite2")
     parser.add_argument("--one-size", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one_size:
@@ -232,6 +234,10 @@ def main() -> None:
     print(f"uptime: {os.getloadavg()} (1, 5, 15 min load averages)")
     if args.only_scaling:
         scaling(args)
+        return
+    if args.only_celerite:
+        against_celerite(args)
+        print(f"\nuptime after: {os.getloadavg()}")
         return
     if args.only_dense:
         dense_fibre(args)

@@ -142,3 +142,16 @@ def test_cuda_matches_cpu() -> None:
     gpu = torchshm.log_likelihood(y, eta.cuda(), x, "matern32", 2.0, 1.0, method="state_space")
     assert gpu.device.type == "cuda"
     torch.testing.assert_close(gpu.cpu(), cpu, rtol=1e-10, atol=0.0)
+
+
+@pytest.mark.parametrize("kernel", MARKOV)
+@pytest.mark.parametrize("n", [1, 2, 7, 64])
+def test_few_points_and_whole_blocks(kernel: str, n: int) -> None:
+    """Sizes around the block layout: one point, one short block, exact multiples (64 = 8 x 8)."""
+    rng = np.random.default_rng(n)
+    x = np.sort(rng.uniform(0.0, 5.0, n))
+    eta = 20.0 * np.cos(x[None, :] + rng.uniform(0, 6, (2, 1)))
+    y = eta + rng.normal(0.0, 1.5, eta.shape)
+    args = (y, eta, x, kernel, 1.3, 0.7, 0.05, 0.2)
+    fast = torchshm.log_likelihood(*args, method="state_space")
+    assert float(fast) == pytest.approx(scipy_log_likelihood(*args), rel=1e-10)

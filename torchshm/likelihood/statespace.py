@@ -7,14 +7,22 @@ linear state ``s`` (dimension ``p`` = 1, 2, 3) that is Markov along the fibre::
     Q_k = sigma**2 (P - F_k P F_kᵀ),   y_k = f_k + r_k,   r_k ~ N(0, D_k),
 
 with ``F_k`` the closed-form transition over the step ``x_k - x_{k-1}`` (from the kernel's
-``state_space``) and ``D_k > 0`` the diagonal of Eq. (21). The log density of ``y`` is the sum of
-the Kalman filter's innovation terms (prediction error decomposition). The filter runs in
-blocks of about ``sqrt(n / 4)`` positions: each block is reduced to one filtering element of the parallel-scan formulation of Särkkä and
-García-Fernández (2021, "Temporal parallelization of Bayesian smoothers", IEEE TAC 66(1)), all
-blocks at once; the elements are applied block after block; then an ordinary filter runs
-inside all blocks at once (``docs/likelihood.md``). It is covariance-form, so a zero step
+``state_space``) and ``D_k > 0`` the diagonal of Eq. (21). The positions are cut into `G`
+blocks of `size` (``docs/likelihood.md``):
+
+1. in every block at once, a Kalman filter *from a known start state* ``s_0`` (the state at the
+   position before the block) gives the block's innovation terms with ``s_0 = 0`` and how they
+   move with ``s_0``: the filtered end state ``b + A s_0`` with covariance ``C``, and the
+   block's likelihood ``exp(c + etaᵀ s_0 - s_0ᵀ J s_0 / 2)`` as a function of ``s_0``;
+2. block after block, the filtered state before each block, ``s_0 ~ N(m, P)``, from these
+   elements (the filtering elements of Särkkä and García-Fernández 2021, "Temporal
+   parallelization of Bayesian smoothers", IEEE TAC 66(1));
+3. all blocks at once, the Gaussian integral of each block's likelihood over ``s_0``.
+
+Everything is exact (no approximation beyond floating point), covariance-form, so a zero step
 (``F = I``, ``Q = 0``, repeated positions) and lengths far above the span (``Q`` tiny) are
 exact and stable, and it is plain torch: differentiable by autograd, and runs on CUDA tensors.
+The scalar state (exponential) has its own loop without small-matrix calls.
 
 Draws of ``f`` are the same recursion with sampled ``q_k`` (:func:`sample`).
 """
@@ -29,6 +37,8 @@ from torch import Tensor
 from torchshm.kernels import Kernel
 
 LOG_2PI = math.log(2.0 * math.pi)
+#: block size ``isqrt(n * BLOCK_FACTOR[p])`` for state dimension ``p`` (measured, docs/benchmarks.md)
+BLOCK_FACTOR = {1: 0.6, 2: 1.2, 3: 1.2}
 
 
 def is_markov(kern: Kernel) -> bool:
@@ -41,11 +51,25 @@ def _model(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor) -> tuple[Te
     (the first is the stationary covariance) and stationary covariance `B x p x p`."""
     step = torch.diff(x, prepend=x[:1])  # n, step 0 at the first position
     F, P = kern.state_space(step[None, :], length[:, None].clamp_min(0.0))  # B x n x p x p
-    scale = sigma_a.square()[:, None, None]
-    P = P * scale  # B x p x p
+    P = P * sigma_a.square()[:, None, None]  # B x p x p
     Q = P[:, None] - F @ P[:, None] @ F.mT
     Q = torch.cat([P[:, None].expand(-1, 1, -1, -1), Q[:, 1:]], dim=1)
     return F, 0.5 * (Q + Q.mT), P
+
+
+def block_size(n: int, p: int) -> int:
+    """Positions per block for `n` positions and state dimension `p`."""
+    return max(1, math.isqrt(int(n * BLOCK_FACTOR.get(p, 1.2))))
+
+
+def _layout(t: Tensor, size: int, blocks: int, fill: float) -> Tensor:
+    """`... x n` -> `size x ... x blocks` (position in block first; a strided view of a padded
+    copy), padded with `fill` at the front of the first block to ``size * blocks`` positions."""
+    *lead, n = t.shape
+    out = t.new_empty(*lead, size * blocks)
+    out[..., : size * blocks - n] = fill
+    out[..., size * blocks - n :] = t
+    return out.unflatten(-1, (blocks, size)).movedim(-1, 0)
 
 
 def log_density(r: Tensor, noise: Tensor, x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor) -> Tensor:
@@ -65,115 +89,122 @@ def log_density(r: Tensor, noise: Tensor, x: Tensor, kern: Kernel, sigma_a: Tens
     B, L, n = r.shape
     F, Q, _ = _model(x, kern, sigma_a, length)  # B x n x p x p
     F = torch.cat([torch.zeros_like(F[:, :1]), F[:, 1:]], dim=1)  # the prior enters through Q_1
-    size = max(1, math.isqrt(n // 4))
+    p = F.shape[-1]
+    size = block_size(n, p)
     blocks = -(-n // size)
-    steps = _blocked(F, Q, r, noise, size, blocks)  # F, Q: size x p x p x G x B x 1; y, D: size x G x B x L
-    starts = _block_starts(_block_elements(*steps), blocks)
-    return _filter(*steps, *starts).sum((0, 1, 3))
+    # padding: F = 0, Q = 0, y = 0, D = 1 — each padded position adds exactly -log(2 pi) / 2
+    y, D = _layout(r, size, blocks, 0.0), _layout(noise, size, blocks, 1.0)  # size x B x L x G
+    if p == 1:
+        F, Q = (_layout(t[..., 0, 0], size, blocks, 0.0)[:, :, None] for t in (F, Q))  # size x B x 1 x G
+        elements, terms = _scalar_blocks(F, Q, y, D)
+        total = terms + _scalar_merge(*elements)
+    else:
+        F, Q = (_layout(t.permute(2, 3, 0, 1), size, blocks, 0.0)[..., None, :] for t in (F, Q))
+        elements, terms = _matrix_blocks(F, Q, y, D)  # F, Q: size x p x p x B x 1 x G
+        total = terms + _matrix_merge(*elements)
+    return total.sum((-1, -2)) - 0.5 * L * n * LOG_2PI
+
+
+def _scalar_blocks(a: Tensor, q: Tensor, y: Tensor, D: Tensor) -> tuple[tuple[Tensor, ...], Tensor]:
+    """Known-start filter in every block at once, scalar state: elements ``(A, b, C, eta, J)``
+    and ``-(sum v²/S + log S) / 2`` at ``s_0 = 0``, each `B x L x G`."""
+    shape = y.shape[1:]
+    m, P, g = y.new_zeros(shape), y.new_zeros(shape), y.new_ones(shape)
+    eta, J, quad, logs = (y.new_zeros(shape) for _ in range(4))
+    a2 = a.square()
+    for j in range(y.shape[0]):
+        Pp = torch.addcmul(q[j], a2[j], P)  # predicted variance
+        S = Pp + D[j]
+        w = S.reciprocal()
+        mp, gp = a[j] * m, a[j] * g  # predicted mean and its derivative in s_0
+        v = y[j] - mp
+        vw = v * w
+        quad = quad.addcmul(v, vw)
+        logs = logs + S.log()
+        eta = eta.addcmul(gp, vw)
+        J = J.addcmul(gp * w, gp)
+        c = D[j] * w  # 1 - gain
+        m, g, P = torch.addcmul(mp, Pp, vw), gp * c, Pp * c
+    return (g, m, P, eta, J), -0.5 * (quad + logs)
+
+
+def _scalar_merge(A: Tensor, b: Tensor, C: Tensor, eta: Tensor, J: Tensor) -> Tensor:
+    """Filtered ``N(m, P)`` before each block, block after block, then each block's Gaussian
+    integral ``log E[exp(eta s_0 - J s_0² / 2)]`` over it; `B x L x G`."""
+    A, b, C, eta, J = (t.movedim(-1, 0) for t in (A, b, C, eta, J))  # G x B x L
+    m, P, one = torch.zeros_like(b[0]), torch.zeros_like(b[0]), torch.ones_like(b[0])
+    ms, Ps = [m], [P]
+    for Ag, A2g, bg, Cg, etag, Jg in zip(A[:-1], A[:-1].square(), b, C, eta, J):
+        W = P / torch.addcmul(one, P, Jg)
+        x = torch.addcmul(m, W, torch.addcmul(etag, Jg, m, value=-1.0))
+        m, P = torch.addcmul(bg, Ag, x), torch.addcmul(Cg, A2g, W)
+        ms.append(m)
+        Ps.append(P)
+    m, P = torch.stack(ms), torch.stack(Ps)
+    den = 1.0 + P * J
+    d = eta - J * m
+    out = eta * m - 0.5 * J * m.square() + 0.5 * d.square() * P / den - 0.5 * den.log()
+    return out.movedim(0, -1)
 
 
 def _mm(X: Tensor, Y: Tensor) -> Tensor:
-    """Products of stacks of small matrices stored component first: `p x q x M` @ `q x r x M`."""
-    if X.shape[1] == 1:
-        return X * Y
-    return (X[:, :, None] * Y[None]).sum(1)
+    """Products of stacks of small matrices stored component first: `p x q x ...` @ `q x r x ...`."""
+    out = X[:, 0, None] * Y[None, 0]
+    for k in range(1, X.shape[1]):
+        out = out.addcmul(X[:, k, None], Y[None, k])
+    return out
 
 
-def _mv(X: Tensor, v: Tensor) -> Tensor:
-    """`p x q x M` matrices times `q x M` vectors."""
-    if X.shape[1] == 1:
-        return X[:, 0] * v
-    return (X * v[None]).sum(1)
+def _matrix_blocks(F: Tensor, Q: Tensor, y: Tensor, D: Tensor) -> tuple[tuple[Tensor, ...], Tensor]:
+    """Known-start filter in every block at once, state dimension ``p > 1``: elements
+    ``A, C, J`` `p x p x B x L x G`, ``b, eta`` `p x B x L x G`, and the terms at ``s_0 = 0``."""
+    p, shape = F.shape[1], y.shape[1:]
+    eye = torch.eye(p, dtype=y.dtype, device=y.device).reshape(p, p, *[1] * len(shape))
+    m, P, G = y.new_zeros(p, 1, *shape), y.new_zeros(p, p, *shape), eye.expand(p, p, *shape)
+    eta, J = y.new_zeros(p, *shape), y.new_zeros(p, p, *shape)
+    quad, logs = y.new_zeros(shape), y.new_zeros(shape)
+    for j in range(y.shape[0]):
+        Fj = F[j]
+        Pp = _mm(_mm(Fj, P), Fj.transpose(0, 1)) + Q[j]
+        Pp = 0.5 * (Pp + Pp.transpose(0, 1))
+        mp, Gp = _mm(Fj, m), _mm(Fj, G)
+        S = Pp[0, 0] + D[j]
+        w = S.reciprocal()
+        v = y[j] - mp[0, 0]
+        vw = v * w
+        quad = quad.addcmul(v, vw)
+        logs = logs + S.log()
+        h = Gp[0]  # derivative of the predicted observation in s_0, p x ...
+        eta = eta.addcmul(h, vw)
+        J = J.addcmul(h[:, None] * w, h[None])
+        k = Pp[:, :1] * w  # gain, p x 1 x ...
+        m = mp.addcmul(Pp[:, :1], vw)
+        G = Gp - k * Gp[:1]
+        P = Pp - k * Pp[:1]
+    return (G, m[:, 0], P, eta, J), -0.5 * (quad + logs)
 
 
-def _blocked(F: Tensor, Q: Tensor, r: Tensor, noise: Tensor, size: int, blocks: int) -> tuple[Tensor, ...]:
-    """Per-position model and data padded to ``blocks * size`` positions, laid out component
-    first with ``M = blocks * B * L`` columns: `size x p x p x M` and `size x M`. Padded
-    positions have ``F = I``, ``Q = 0`` and no observation (``seen = 0``)."""
-    B, L, n = r.shape
-    p, pad = F.shape[-1], blocks * size - n
-    eye = torch.eye(p, dtype=F.dtype, device=F.device).expand(B, pad, p, p)
-    F, Q = torch.cat([F, eye], dim=1), torch.cat([Q, torch.zeros_like(eye)], dim=1)
-
-    def matrices(t: Tensor) -> Tensor:  # B x N x p x p -> size x p x p x G x B x 1
-        return t.reshape(B, blocks, size, p, p).permute(2, 3, 4, 1, 0)[..., None].contiguous()
-
-    def scalars(t: Tensor) -> Tensor:  # B x L x n -> size x G x B x L
-        t = torch.cat([t, t.new_ones(*t.shape[:-1], pad)], dim=-1)
-        return t.reshape(B, L, blocks, size).permute(3, 2, 0, 1).contiguous()
-
-    seen = torch.cat([r.new_ones(n), r.new_zeros(pad)]).reshape(blocks, size).T[:, :, None, None]
-    return matrices(F), matrices(Q), scalars(r) * seen, scalars(noise), seen
-
-
-def _block_elements(F: Tensor, Q: Tensor, y: Tensor, D: Tensor, seen: Tensor) -> tuple[Tensor, ...]:
-    """Filtering elements ``(A, b, C, eta, J)`` (`p x p x M`, `p x M`) of each block: the
-    sequential combination of its positions' elements, all blocks at once. A position's element
-    has a rank-one information part, so each step is a Sherman-Morrison update (no inverse)."""
-    size, p, shape = F.shape[0], F.shape[1], y.shape[1:]  # shape: G x B x L
-    A = torch.eye(p, dtype=F.dtype, device=F.device).reshape(p, p, 1, 1, 1).expand(p, p, *shape)
-    b, h = y.new_zeros(p, *shape), y.new_zeros(p, *shape)
-    C, J = y.new_zeros(p, p, *shape), y.new_zeros(p, p, *shape)
-    for j in range(size):
-        Fj, Qj, yj, S = F[j], Q[j], y[j], Q[j, 0, 0] + D[j]
-        gain = Qj[:, 0] * (seen[j] / S)
-        f = Fj[0] * seen[j]  # observation row through the transition
-        A2 = Fj - gain[:, None] * Fj[None, 0]
-        C2 = Qj - gain[:, None] * Qj[None, 0]
-        u, g = _mv(C, f), _mv(A.transpose(0, 1), f)
-        alpha = S + (f * u).sum(0)
-        t = b + u * (yj / S)
-        t = t - u * ((f * t).sum(0) / alpha)
-        h = h + g * ((yj - (f * b).sum(0)) / alpha)
-        J = J + g[:, None] * g[None] / alpha
-        A = _mm(A2, A - u[:, None] * g[None] / alpha)
-        C = _mm(_mm(A2, C - u[:, None] * u[None] / alpha), A2.transpose(0, 1)) + C2
-        b = _mv(A2, t) + gain * yj
-    return A, b, C, h, J
-
-
-def _block_starts(elements: tuple[Tensor, ...], blocks: int) -> tuple[Tensor, Tensor]:
-    """Filtered mean `p x M` and covariance `p x p x M` just before each block, by applying the
-    block elements in turn (the first position's element ignores what it is given)."""
-    A, b, C, h, J = elements  # p (x p) x G x B x L
-    p, shape = b.shape[0], b.shape[1:]
-    if p == 1:  # scalar state: the same recursion without small-matrix calls
-        A, b, C, h, J = (e.expand(*e.shape[: e.ndim - 3], *shape).reshape(shape) for e in elements)
-        ms, Ps = [torch.zeros_like(b[0])], [torch.zeros_like(b[0])]
-        for g in range(blocks - 1):
-            gain = A[g] / (1.0 + Ps[-1] * J[g])
-            ms.append(gain * (ms[-1] + Ps[-1] * h[g]) + b[g])
-            Ps.append(gain * A[g] * Ps[-1] + C[g])
-        return torch.stack(ms)[None], torch.stack(Ps)[None, None]
-    A, C, J = (e.expand(p, p, *shape).permute(2, 3, 4, 0, 1) for e in (A, C, J))
-    b, h = b.permute(1, 2, 3, 0), h.permute(1, 2, 3, 0)  # G x B x L x p (x p)
-    eye = torch.eye(p, dtype=b.dtype, device=b.device)
-    means, covs = [torch.zeros_like(b[0])], [torch.zeros_like(A[0])]
-    for g in range(blocks - 1):
-        m, P = means[-1], covs[-1]
-        inv, _ = torch.linalg.solve_ex(eye + P @ J[g], torch.cat([m[..., None] + P @ h[g][..., None], P], -1))
-        means.append((A[g] @ inv[..., :1])[..., 0] + b[g])
-        P = A[g] @ inv[..., 1:] @ A[g].mT + C[g]
-        covs.append(0.5 * (P + P.mT))
-    m, P = torch.stack(means), torch.stack(covs)  # G x B x L x p (x p)
-    return m.permute(3, 0, 1, 2), P.permute(3, 4, 0, 1, 2)
-
-
-def _filter(F: Tensor, Q: Tensor, y: Tensor, D: Tensor, seen: Tensor, m: Tensor, P: Tensor) -> Tensor:
-    """Kalman filter inside every block at once, from the filtered state before each block;
-    returns the innovation log densities `size x M` (0 at padded positions)."""
-    terms = []
-    for j in range(F.shape[0]):
-        m = _mv(F[j], m)
-        P = _mm(_mm(F[j], P), F[j].transpose(0, 1)) + Q[j]
-        S = P[0, 0] + D[j]
-        v = y[j] - m[0]
-        terms.append(-0.5 * seen[j] * (v.square() / S + S.log() + LOG_2PI))
-        gain = P[:, 0] * (seen[j] / S)
-        m = m + gain * v
-        P = P - gain[:, None] * P[None, 0]
-        P = 0.5 * (P + P.transpose(0, 1))
-    return torch.stack(terms)
+def _matrix_merge(A: Tensor, b: Tensor, C: Tensor, eta: Tensor, J: Tensor) -> Tensor:
+    """As :func:`_scalar_merge` for ``p > 1``: `B x L x G` block integrals."""
+    A, C, J = (t.permute(4, 2, 3, 0, 1) for t in (A, C, J))  # G x B x L x p x p
+    b, eta = (t.permute(3, 1, 2, 0)[..., None] for t in (b, eta))  # G x B x L x p x 1
+    eye = torch.eye(A.shape[-1], dtype=A.dtype, device=A.device)
+    m, P = torch.zeros_like(b[0]), torch.zeros_like(A[0])
+    ms, Ps = [m], [P]
+    for g in range(A.shape[0] - 1):
+        W, _ = torch.linalg.solve_ex(eye + P @ J[g], P)
+        m = A[g] @ (m + W @ (eta[g] - J[g] @ m)) + b[g]
+        P = A[g] @ W @ A[g].mT + C[g]
+        P = 0.5 * (P + P.mT)
+        ms.append(m)
+        Ps.append(P)
+    m, P = torch.stack(ms), torch.stack(Ps)
+    den = eye + P @ J
+    W, _ = torch.linalg.solve_ex(den, P)
+    d = eta - J @ m
+    out = (eta * m).sum((-1, -2)) - 0.5 * (m * (J @ m)).sum((-1, -2))
+    out = out + 0.5 * (d * (W @ d)).sum((-1, -2)) - 0.5 * torch.linalg.slogdet(den)[1]
+    return out.movedim(0, -1)
 
 
 def sample(
