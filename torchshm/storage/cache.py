@@ -66,6 +66,9 @@ class MemoryBackend:
             check_dtype(raw)
             out = as_tensor(raw)
             if tuple(out.shape) != (rows.shape[0], *shape):
+                if out.ndim == len(shape) + 1 and out.shape[0] == rows.shape[0]:
+                    raise ValueError(f"model output has shape {tuple(out.shape[1:])} per parameter "
+                                     f"vector, expected (L, n) = {shape}")
                 raise ValueError(
                     f"model output has shape {tuple(out.shape)} for {rows.shape[0]} parameter "
                     f"vector(s), expected {(rows.shape[0], *shape)}"
