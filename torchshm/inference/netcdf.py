@@ -5,7 +5,8 @@ Groups:
 - ``posterior``: one variable per parameter, dims ``(chain, draw)``; attributes: method, names,
   convergence, evidence, model evaluations, priors (JSON) and diagnostics (JSON).
 - ``sample_stats``: per-sample statistics, dims ``(chain, draw)`` (emcee: ``lp``).
-- ``observed_data``: the measurements of the problem, ``y`` with dims ``(load, x)``.
+- ``observed_data``: the measurements of the problem, ``y`` with dims ``(load, x)`` (for `n x d`
+  coordinates: ``y(load, point)`` and ``x(point, axis)``).
 - ``history``: the per-iteration trace, one variable ``value`` with dims ``(row, column)``.
 - ``variational_posterior`` (VBMC): the mixture (``w``, ``mu``, ``sigma``, ``lambd``) and the
   state of PyVBMC's parameter transformer, from which :func:`load_posterior` rebuilds a
@@ -67,12 +68,13 @@ def _observed_group(post: Posterior) -> xr.Dataset | None:
     if meas is None:
         return None
     y = np.asarray(meas.y, dtype=np.float64)
-    coords = {
-        "load": np.asarray(meas.loads, dtype=np.float64),
-        "x": np.asarray(meas.x, dtype=np.float64),
-    }
+    x = np.asarray(meas.x, dtype=np.float64)
     attrs = {"units": "microstrain", "sigma_e": float(meas.sigma_e)}
-    return xr.Dataset({"y": (("load", "x"), y)}, coords=coords, attrs=attrs)
+    loads = np.asarray(meas.loads, dtype=np.float64)
+    if x.ndim == 2:  # (n, d) coordinates of a field: y on (load, point), x on (point, axis)
+        data = {"y": (("load", "point"), y), "x": (("point", "axis"), x)}
+        return xr.Dataset(data, coords={"load": loads}, attrs=attrs)
+    return xr.Dataset({"y": (("load", "x"), y)}, coords={"load": loads, "x": x}, attrs=attrs)
 
 
 def _history_group(post: Posterior) -> xr.Dataset:
