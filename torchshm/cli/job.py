@@ -63,12 +63,35 @@ def load_data(data: DataConfig, base: Path) -> Measurements:
     import torchshm
 
     if data.path is None:
-        measurements = torchshm.synthetic_campaign(seed=data.campaign_seed, pitch=data.pitch)
+        if data.format is not None or data.odisi or data.missing is not None:
+            raise ValueError("data.format, data.missing and data.odisi apply to a file (data.path)")
+        lines = 1 if data.lines is None else data.lines
+        measurements = torchshm.synthetic_campaign(seed=data.campaign_seed, pitch=data.pitch, lines=lines)
     else:
-        measurements = torchshm.load_measurements(resolve_path(data.path, base))
+        measurements = _load_file(data, resolve_path(data.path, base))
     if data.resolution is None:
         return measurements
     return measurements.downsample(data.resolution)
+
+
+def _load_file(data: DataConfig, path: Path) -> Measurements:
+    """The measurements of ``data.path`` in ``data.format`` (ODiSI options from ``data.lines``
+    and ``data.odisi``)."""
+    import torchshm
+
+    fmt = None if data.format is None else str(data.format).lower()
+    if fmt is None and path.suffix.lower() == ".tsv":
+        fmt = "odisi"
+    options = dict(data.odisi or {})
+    if fmt == "odisi":
+        if data.lines is not None:
+            options["lines"] = {k: tuple(v) if isinstance(v, list) and len(v) == 2 and all(
+                isinstance(e, (int, float)) for e in v) else v for k, v in dict(data.lines).items()}
+        return torchshm.load_measurements(path, "odisi", missing=data.missing, **options)
+    if data.lines is not None or options:
+        raise ValueError("data.lines and data.odisi apply to format=odisi and the synthetic campaign; "
+                         f"{path.name} names its own lines")
+    return torchshm.load_measurements(path, fmt, missing=data.missing)
 
 
 def build_model(settings: Config, base: Path) -> ForwardModel:
@@ -109,6 +132,8 @@ def build_problem(settings: Config, model: ForwardModel, measurements: Measureme
         sigma_m=settings.likelihood.sigma_m,
         sigma_e=settings.likelihood.sigma_e,
         store=store,
+        match=settings.likelihood.match,
+        discrepancy=settings.likelihood.discrepancy,
     )
 
 

@@ -6,7 +6,7 @@ from typing import Any
 
 from torchshm.data.measurements import Measurements, load_measurements
 
-__all__ = ["Measurements", "load_measurements", "synthetic_campaign", "flag_anomalies"]
+__all__ = ["Measurements", "load_measurements", "synthetic_campaign", "flag_anomalies", "with_dropouts"]
 
 
 def __getattr__(name: str) -> Any:
@@ -14,8 +14,8 @@ def __getattr__(name: str) -> Any:
         from torchshm.data.anomaly import flag_anomalies
 
         return flag_anomalies
-    if name == "synthetic_campaign":
-        from torchshm.data.campaign import synthetic_campaign
+    if name in ("synthetic_campaign", "with_dropouts"):
+        from torchshm.data import campaign
 
-        return synthetic_campaign
+        return getattr(campaign, name)
     raise AttributeError(f"module 'torchshm.data' has no attribute {name!r}")

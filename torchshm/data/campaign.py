@@ -101,12 +101,17 @@ def campaign_truth(path: str | Path | None = None) -> CampaignTruth:
     return CampaignTruth(truth.x.copy(), truth.loads.copy(), truth.strain.copy(), dict(truth.attrs))
 
 
-def synthetic_campaign(seed: int = 0, path: str | Path | None = None, pitch: float | None = None) -> Measurements:
+def synthetic_campaign(
+    seed: int = 0, path: str | Path | None = None, pitch: float | None = None, lines: int = 1
+) -> Measurements:
     """Synthetic fibre measurements of bridge 705: 12 load cases at 0.1 m pitch (35–70 m).
 
     ``y = strain_truth + offset_l + e``, with one offset ``offset_l ~ N(0, offset_sd²)`` per
     load case and independent ``e ~ N(0, sigma_e²)``, drawn in that order from
-    ``numpy.random.default_rng(seed)``.
+    ``numpy.random.default_rng(seed)``. With ``lines=2`` a second fibre runs along the top face
+    of the deck at the same positions (line labels ``"bottom"``, ``"top"``): its truth strains
+    are computed from the same truth structure (:func:`top_face_truth`) and its own offsets and
+    noise are drawn after the bottom fibre's, so the bottom line equals the one-fibre campaign.
 
     Args:
         seed: seed of the noise; the same seed gives identical measurements in every process.
@@ -115,11 +120,15 @@ def synthetic_campaign(seed: int = 0, path: str | Path | None = None, pitch: flo
             another pitch (e.g. 0.005) computes the same truth structure's gauge-averaged
             strains at every ``pitch`` from 35 to 70 m (:func:`dense_truth`, cached per
             pitch in this process), with the file's noise levels and truth parameters.
+        lines: 1 (bottom fibre) or 2 (bottom and top face; the model is
+            ``torchshm.bridge705(lines=2)``).
 
     Returns:
         Measurements `L x n` [µε] with ``sigma_e`` from the file and the truth parameters in
         ``attrs`` (``truth_E_c`` [GPa], ``truth_log10_K_r``).
     """
+    if lines not in (1, 2):
+        raise ValueError(f"synthetic_campaign: lines must be 1 or 2, got {lines!r}")
     truth = campaign_truth(path)
     if pitch is not None and not np.isclose(pitch, np.median(np.diff(truth.x)), rtol=1e-9, atol=0.0):
         truth = dense_truth(float(pitch), truth)
@@ -134,7 +143,92 @@ def synthetic_campaign(seed: int = 0, path: str | Path | None = None, pitch: flo
         "offset_sd": truth.offset_sd,
     }
     y = truth.strain + offsets + noise
-    return Measurements(truth.x, y, truth.loads, sigma_e=truth.sigma_e, attrs=attrs)
+    if lines == 1:
+        return Measurements(truth.x, y, truth.loads, sigma_e=truth.sigma_e, attrs=attrs)
+    top = top_face_truth(truth)
+    top = top + rng.normal(0.0, truth.offset_sd, size=(truth.loads.size, 1))
+    top = top + rng.normal(0.0, truth.sigma_e, size=top.shape)
+    line = np.repeat(np.array(["bottom", "top"]), truth.x.size)
+    return Measurements(
+        np.tile(truth.x, 2), np.hstack([y, top]), truth.loads, sigma_e=truth.sigma_e, attrs=attrs, line=line
+    )
+
+
+def top_face_truth(truth: CampaignTruth) -> np.ndarray:
+    """Noise-free, gauge-averaged top-face strains `L x n` [µε] of the truth structure at the
+    positions of ``truth`` (same mesh, loads and gauge as the bottom fibre; the top face lies
+    ``depth - c_b`` above the deck axis, with the haunches and the neutral-axis shifts of
+    :func:`~torchshm.physics.truth.deck_sections`).
+
+    Raises:
+        ValueError: for a campaign made for other truth parameters.
+    """
+    from torchshm.physics.truth import TruthConfig
+
+    default = TruthConfig()
+    if (float(truth.attrs["truth_E_c"]), float(truth.attrs["truth_log10_K_r"])) != (default.E_c, default.log10_K_r):
+        raise ValueError("synthetic_campaign: lines=2 needs the shipped truth parameters")
+    pitch = float(np.round(np.median(np.diff(truth.x)), 9))
+    x, strain = _top_strain(pitch, float(truth.x[0]), float(truth.x[-1]))
+    if x.shape != truth.x.shape or not np.allclose(x, truth.x, atol=1e-9, rtol=0.0):
+        raise ValueError("synthetic_campaign: lines=2 needs equally spaced positions from the truth's sensors")
+    return strain.copy()
+
+
+@lru_cache(maxsize=4)
+def _top_strain(pitch: float, start: float, end: float) -> tuple[np.ndarray, np.ndarray]:
+    import dataclasses
+
+    import torch
+
+    from torchshm.physics.truth import TruthConfig, gauge_average, solve, spread_loads, truth_mesh
+
+    default = TruthConfig()
+    model = dataclasses.replace(default.model, sensor_pitch=pitch, sensor_start=start, sensor_end=end)
+    config = dataclasses.replace(default, model=model)
+    mesh, c_b = truth_mesh(config)
+    loads = [spread_loads(mesh, model.truck, front, model.length, config.load_spread) for front in model.loads]
+    U = solve(mesh.frame, torch.stack(loads, dim=1))
+    mid = 0.5 * (mesh.deck_x[1:] + mesh.deck_x[:-1])
+    to_pier = np.min(np.abs(mid[:, None] - model.pier_x()[None, :]), axis=1)
+    depth = model.deck.depth + config.haunch_depth * np.clip(1.0 - to_pier / config.haunch_length, 0.0, None)
+    c_top = -(1000.0 * depth - c_b)  # [mm], negative: above the axis
+    strain = (1e6 * gauge_average(mesh, U, c_top, model.sensor_x(), config.gauge_length).T).numpy()
+    strain.setflags(write=False)
+    return model.sensor_x(), strain
+
+
+def with_dropouts(
+    m: Measurements, fraction: float = 0.05, gap: float = 0.4, seed: int = 0
+) -> Measurements:
+    """A copy of ``m`` with readings lost as in a real campaign, masked (``missing="mask"``).
+
+    In each load case a share ``fraction`` of the readings is lost at random (without
+    replacement), and one stretch of ``gap`` m of one line, chosen at random, is lost at once
+    (a signal loss at a crack or splice): positions in ``[start, start + gap)``. Drawn from
+    ``numpy.random.default_rng(seed)``, load case by load case.
+
+    Args:
+        m: 1-D measurements (one or several lines).
+        fraction: share of the readings lost at random per load case, in [0, 1).
+        gap: length of the stretch lost per load case [m], >= 0 (0: none).
+        seed: seed of the draws.
+
+    Raises:
+        ValueError: for a fraction or gap out of range, or coordinates (`n x d`).
+    """
+    if not 0.0 <= fraction < 1.0 or not gap >= 0.0 or m.x.ndim != 1:
+        raise ValueError(f"with_dropouts: need 0 <= fraction < 1, gap >= 0 and 1-D x, got {fraction}, {gap}")
+    rng = np.random.default_rng(seed)
+    y, parts = m.y.copy(), list(m.line_slices().values())
+    for row in y:
+        row[rng.choice(m.n, size=int(round(fraction * m.n)), replace=False)] = np.nan
+        if gap > 0.0:
+            part = parts[rng.integers(len(parts))]
+            x = m.x[part]
+            start = rng.uniform(x[0], max(x[0], x[-1] - gap))
+            row[part][(x >= start) & (x < start + gap)] = np.nan
+    return Measurements(m.x, y, m.loads, m.sigma_e, m.attrs, line=m.line, missing="mask")
 
 
 def dense_truth(pitch: float, shipped: CampaignTruth) -> CampaignTruth:

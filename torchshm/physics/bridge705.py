@@ -1,4 +1,4 @@
-"""The forward model of bridge 705: deck bottom-fibre strains under truck T1.
+"""The forward model of bridge 705: deck bottom-fibre (and optionally top-face) strains under truck T1.
 
 The stiffness of the frame is affine in the two physical parameters,
 
@@ -66,10 +66,15 @@ def load_matrix(mesh: BridgeMesh, config: Bridge705Config) -> Tensor:
     return torch.stack(columns, dim=1)
 
 
+#: the deck faces a fibre can run along, and the sign of their distance from the deck axis
+FACES = {"bottom": 1.0, "top": -1.0}
+
+
 @lru_cache(maxsize=8)
-def _operators(config: Bridge705Config) -> tuple[Tensor, Tensor, Tensor, Tensor]:
+def _operators(config: Bridge705Config, face: str = "bottom") -> tuple[Tensor, Tensor, Tensor, Tensor]:
     """S0 (`n x L`), G (`n x 6`), H (`6 x 6`), R (`6 x L`): one K0 solve for the loads and the
-    pier-base rotations. Cached per configuration; the tensors are shared, never modified."""
+    pier-base rotations, strains on the deck ``face``. Cached per configuration and face; the
+    tensors are shared, never modified."""
     mesh = bridge_mesh(config)
     free = mesh.frame.free
     position = torch.full((mesh.frame.n_dof,), -1, dtype=torch.int64)
@@ -83,7 +88,7 @@ def _operators(config: Bridge705Config) -> tuple[Tensor, Tensor, Tensor, Tensor]
     K0_inv_F, K0_inv_P = solution[:, : F.shape[1]], solution[:, F.shape[1] :]
     sensors, S0, G = config.sensor_x(), [], []
     for start in range(0, sensors.size, _SENSOR_CHUNK):  # bounded memory at dense pitches
-        B = mesh.strain_operator(sensors[start : start + _SENSOR_CHUNK], config.deck.c_b)[:, free]
+        B = mesh.strain_operator(sensors[start : start + _SENSOR_CHUNK], FACES[face] * config.deck.c_b)[:, free]
         S0.append(B @ K0_inv_F)
         G.append(B @ K0_inv_P)
     return torch.cat(S0), torch.cat(G), K0_inv_P[springs], K0_inv_F[springs]
@@ -96,8 +101,13 @@ class Bridge705:
     bottom-fibre strains [µε] (`... x L x n`, tension positive) at the fibre positions
     :attr:`x` for every truck position in :attr:`loads`. Batched and differentiable.
 
+    With ``lines=("bottom", "top")`` it gives a second fibre along the top face of the deck at
+    the same positions: :attr:`x` then holds the positions of both lines one after the other and
+    :attr:`line` their labels (the surrogate of bridge 705 covers the bottom fibre only).
+
     Attributes:
-        x: `n` sensor positions [m] (351 points, 35.0 .. 70.0 m).
+        x: `n` sensor positions [m] (351 points, 35.0 .. 70.0 m), per line.
+        line: `n` line labels (``"bottom"``, ``"top"``), only with a second line.
         loads: `L` front-axle positions [m] of truck T1 (12 load cases).
         names: names of the physical parameters, in input order.
         surrogate_transform: keywords of
@@ -114,12 +124,21 @@ class Bridge705:
         "log_inputs": (0,), "modulus": 0, "relative_to_modulus": (1,)
     }
 
-    def __init__(self, config: Bridge705Config | None = None) -> None:
+    def __init__(self, config: Bridge705Config | None = None, lines: tuple[str, ...] = ("bottom",)) -> None:
         self.config = config or Bridge705Config()
-        self.x = torch.as_tensor(self.config.sensor_x(), dtype=torch.float64)
+        lines = tuple(lines)
+        if not lines or len(set(lines)) != len(lines) or any(f not in FACES for f in lines):
+            raise ValueError(f"bridge705: lines must be distinct faces among {list(FACES)}, got {list(lines)}")
+        sensors = self.config.sensor_x()
+        self.x = torch.as_tensor(np.tile(sensors, len(lines)), dtype=torch.float64)
         self.loads = torch.as_tensor(self.config.loads, dtype=torch.float64)
         self.identity = f"{self.config.identity()}-{FORMULATION}"
         self.S0, self.G, self.H, self.R = _operators(self.config)
+        if lines != ("bottom",):
+            self.line = np.repeat(np.array(lines), sensors.size)
+            self.identity += "-lines-" + "-".join(lines)
+            parts = [_operators(self.config, face) for face in lines]
+            self.S0, self.G = torch.cat([p[0] for p in parts]), torch.cat([p[1] for p in parts])
 
     def __call__(self, theta_p: Tensor | np.ndarray) -> Tensor:
         """Strains [µε] `... x L x n` for `theta_p` `... x 2` = (E_c [GPa], log10 K_r)."""
@@ -142,7 +161,9 @@ class Bridge705:
         return f"Bridge705({self.loads.numel()} load cases, {self.x.numel()} sensors, {self.identity})"
 
 
-def bridge705(config: Bridge705Config | None = None, pitch: float | None = None) -> Bridge705:
+def bridge705(
+    config: Bridge705Config | None = None, pitch: float | None = None, lines: int | tuple[str, ...] = 1
+) -> Bridge705:
     """The finite element model of bridge 705 (see :class:`Bridge705`).
 
     Args:
@@ -151,13 +172,19 @@ def bridge705(config: Bridge705Config | None = None, pitch: float | None = None)
             load case); replaces ``config.sensor_pitch``. The strain at each point comes from
             its element's own (Hermite) interpolation, on the same 0.1 m mesh. ``None`` keeps
             the configuration's (0.1 m by default: the model and its identity are unchanged).
+        lines: 1 (the bottom fibre), 2 (bottom and top face, line labels ``"bottom"``,
+            ``"top"``) or a tuple of faces.
 
     Raises:
-        ValueError: for a pitch that is not a positive number.
+        ValueError: for a pitch that is not a positive number, or unknown lines.
     """
     config = config or Bridge705Config()
     if pitch is not None:
         if not isinstance(pitch, (int, float)) or not math.isfinite(pitch) or pitch <= 0:
             raise ValueError(f"bridge705: pitch must be a positive number of metres, got {pitch!r}")
         config = dataclasses.replace(config, sensor_pitch=float(pitch))
-    return Bridge705(config)
+    if lines in (1, 2):
+        lines = tuple(FACES)[:lines]  # type: ignore[misc]
+    elif isinstance(lines, int) or isinstance(lines, str):
+        raise ValueError(f"bridge705: lines must be 1, 2 or a tuple of faces {list(FACES)}, got {lines!r}")
+    return Bridge705(config, tuple(lines))

@@ -105,6 +105,9 @@ def predictive_metrics(pred: PredictiveResult, measurements: Any,
                        loads: Iterable[float] | None = None) -> PredictiveMetrics:
     """All scores of :class:`PredictiveMetrics` for the shared load cases and positions."""
     y, mean, lower, upper = aligned(pred, measurements, loads)
+    valid = np.isfinite(y)
+    if not valid.all():  # masked (dropped) readings are not scored
+        y, mean, lower, upper = y[valid], mean[valid], lower[valid], upper[valid]
     resid = y - mean
     return PredictiveMetrics(
         coverage=float(np.mean((y >= lower) & (y <= upper))),

@@ -23,13 +23,22 @@ def problem_of(post: PosteriorLike, problem: Problem | None) -> Problem:
     """The problem to use: ``problem`` when given, else ``post.problem``.
 
     Raises:
-        ValueError: when neither is available (e.g. a posterior loaded from file).
+        ValueError: when neither is available (e.g. a posterior loaded from file), or for a
+            problem of several sensor lines or interpolated positions (not predicted yet).
     """
     problem = problem if problem is not None else getattr(post, "problem", None)
     if problem is None:
         raise ValueError(
             "the posterior carries no Problem (was it loaded from a file?); pass problem=..."
         )
+    lines = list(getattr(problem.measurements, "lines", (None,)))
+    positions = getattr(problem, "positions", None)
+    model_line = getattr(problem.model, "line", None)
+    if model_line is not None and len(set(np.asarray(model_line).ravel().tolist())) > 1:
+        lines = list(dict.fromkeys(np.asarray(model_line).ravel().tolist()))
+    if len(lines) > 1 or (positions is not None and not positions.exact):
+        what = f"{len(lines)} sensor lines {lines}" if len(lines) > 1 else "interpolated positions"
+        raise ValueError(f"posterior predictive: one sensor line matched exactly only; this problem has {what}")
     return problem
 
 

@@ -71,7 +71,7 @@ def match_measured(measurements: Any, model: Any, match: str = "exact") -> Posit
         raise ValueError(f"Problem: match must be 'exact' or 'interpolate', got {match!r}")
     model_x = as_numpy(model.x).astype(np.float64)
     model_line = getattr(model, "line", None)
-    labels = None if model_line is None else np.array([str(v) for v in np.asarray(model_line).ravel()])
+    labels = None if model_line is None else np.array([str(v) for v in np.asarray(model_line).ravel()], dtype=object)
     if labels is not None and labels.size != model_x.shape[0]:
         raise ValueError(f"Problem: model.line has {labels.size} labels for {model_x.shape[0]} positions")
     slices = measurements.line_slices()
@@ -81,7 +81,7 @@ def match_measured(measurements: Any, model: Any, match: str = "exact") -> Posit
         candidates = _candidates(label, labels, list(slices), model_x.shape[0])
         x, xc = measurements.x[part], model_x[candidates]
         if match == "exact" or xc.shape[0] == 1:
-            index = candidates[_exact(x, xc, f"position{where}")]
+            index = candidates[_exact(x, xc, where)]
             left.append(index), right.append(index), weight.append(np.zeros(index.size))
         else:
             a, b, w = _interpolate(x, xc, where)
@@ -101,7 +101,7 @@ def _candidates(label: object, labels: np.ndarray | None, measured: list, n_mode
             )
         return np.arange(n_model)
     if label is None:
-        distinct = list(dict.fromkeys(labels))
+        distinct = list(dict.fromkeys(labels.tolist()))
         if len(distinct) > 1:
             raise ValueError(
                 f"Problem: the model has lines {distinct} but the measurements name none; "
@@ -110,15 +110,21 @@ def _candidates(label: object, labels: np.ndarray | None, measured: list, n_mode
         return np.arange(labels.size)
     found = np.flatnonzero(labels == str(label))
     if found.size == 0:
-        known = list(dict.fromkeys(labels))
+        known = list(dict.fromkeys(labels.tolist()))
         raise ValueError(f"Problem: measured line {label!r} is not among the model's lines {known}")
     return found
 
 
-def _exact(x: np.ndarray, xc: np.ndarray, what: str) -> np.ndarray:
+def _exact(x: np.ndarray, xc: np.ndarray, where: str) -> np.ndarray:
     """Indices into ``xc`` of the points ``x`` (1-D values or d-D points, within the tolerance)."""
+    what = "position"
     if x.ndim == 1 and xc.ndim == 1:
-        return match_positions(x, xc, what)
+        try:
+            return match_positions(x, xc, what)
+        except ValueError as err:
+            if not where:
+                raise
+            raise ValueError(f"{err}{where}") from None
     if x.ndim != xc.ndim or x.shape[1] != xc.shape[1]:
         raise ValueError(f"Problem: measured {what}s have {x.shape[1:]} values per point, the model's {xc.shape[1:]}")
     index = np.empty(x.shape[0], dtype=np.int64)
@@ -129,7 +135,7 @@ def _exact(x: np.ndarray, xc: np.ndarray, what: str) -> np.ndarray:
     if missing.any():
         shown = ", ".join(str(tuple(float(v) for v in p)) for p in x[missing][:3])
         shown += ", ..." if missing.sum() > 3 else ""
-        raise ValueError(f"measured {what}s not produced by the model (tolerance {POSITION_TOL:g} m): {shown}")
+        raise ValueError(f"measured {what}s not produced by the model (tolerance {POSITION_TOL:g} m): {shown}{where}")
     return index
 
 

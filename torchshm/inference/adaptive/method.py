@@ -76,6 +76,9 @@ def run_emulator(
         (False when the budget ran out first, with a warning).
     """
     t0 = time.perf_counter()
+    m = problem.measurements
+    if len(getattr(m, "lines", (None,))) > 1 or getattr(m, "n_missing", 0) or getattr(problem, "blocks", [0])[1:]:
+        raise ValueError("method='emulator': one sensor line with every reading valid only; use 'vbmc' or 'emcee'")
     hard = np.asarray(problem.hard_bounds, dtype=np.float64)
     plausible = np.asarray(problem.plausible_bounds, dtype=np.float64)
     names, dim = list(problem.names), len(problem.names)
