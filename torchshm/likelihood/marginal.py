@@ -84,10 +84,15 @@ def choose_method(
         return "state_space"
     need, have = 2 * 8 * n * n, _physical_memory()
     if need > DENSE_MEMORY_SHARE * have:
+        instead = (
+            "use 'exponential', 'matern32' or 'matern52' with sigma_e > 0 (exact O(n) state space) "
+            "or fewer points (a coarser pitch)" if dim == 1 else
+            f"{dim}-D coordinates have no state-space form: use fewer points (a coarser grid) or split "
+            "the field into sensor lines (independent blocks)"
+        )
         raise ValueError(
             f"{n} points per load case: a dense covariance needs {need / 2**30:.1f} GiB of "
-            f"{have / 2**30:.1f} GiB for kernel {kern.name!r}; use 'exponential', 'matern32' or "
-            "'matern52' with sigma_e > 0 (exact O(n) state space) or fewer points (a coarser pitch)"
+            f"{have / 2**30:.1f} GiB for kernel {kern.name!r}; {instead}"
         )
     return "dense"
 
