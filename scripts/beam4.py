@@ -10,6 +10,8 @@ prior range, so the response is far from linear in the parameters). A 100 kN axl
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import torch
 
@@ -82,3 +84,28 @@ def beam4_problem(store: object = None, seed: int = 0) -> torchshm.Problem:
          + (chol @ rng.standard_normal((N_EL, 3))).T + 0.1 * rng.standard_normal(eta.shape))
     meas = torchshm.Measurements(model.x.numpy(), y, model.loads.numpy(), sigma_e=0.1)
     return torchshm.Problem(model, meas, kernel="matern32", priors=beam4_priors(), store=store)
+
+
+def beam4_log_joint(problem: torchshm.Problem) -> Callable[[np.ndarray], np.ndarray]:
+    """The log joint of ``problem`` computed straight from :class:`Beam4`, without the
+    problem's output cache (which would keep every θp of a long chain in memory).
+
+    Returns:
+        A function of rows `B x D` (``problem.names`` order) giving `B` log joints, -inf outside
+        the prior support; equal to ``problem.log_joint``.
+    """
+    model = Beam4()
+    y = torch.as_tensor(np.asarray(problem.measurements.y, dtype=np.float64))
+    x = torch.as_tensor(np.asarray(problem.measurements.x, dtype=np.float64))
+
+    def log_joint(theta: np.ndarray) -> np.ndarray:
+        rows = torch.as_tensor(np.atleast_2d(theta), dtype=torch.float64)
+        out = problem.prior.log_prob(rows).clone()
+        ok = torch.isfinite(out)
+        if bool(ok.any()):
+            theta_p, sigma_a, length = problem.split.split(rows[ok])
+            out[ok] += torchshm.log_likelihood(y, model(theta_p), x, problem.kernel, sigma_a,
+                                               length, problem.sigma_m, problem.sigma_e)
+        return torch.nan_to_num(out, nan=-torch.inf).numpy()
+
+    return log_joint
