@@ -14,8 +14,12 @@ def __getattr__(name: str) -> Any:
         from torchshm.data.anomaly import flag_anomalies
 
         return flag_anomalies
-    if name in ("synthetic_campaign", "with_dropouts"):
-        from torchshm.data import campaign
+    if name == "synthetic_campaign":
+        from torchshm.data.campaign import synthetic_campaign
 
-        return getattr(campaign, name)
+        return synthetic_campaign
+    if name == "with_dropouts":
+        from torchshm.data.dropouts import with_dropouts
+
+        return with_dropouts
     raise AttributeError(f"module 'torchshm.data' has no attribute {name!r}")
