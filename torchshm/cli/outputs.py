@@ -74,6 +74,7 @@ def write_posterior(post: Posterior, out_dir: Path, attrs: Mapping[str, Any],
     summary.to_csv(files["summary"])
     print(post, flush=True)
     truths = truths_of(attrs, list(post.names))
+    log.info("drawing the corner plot, ELBO and trace figures")
     files["corner"] = plots.corner_plot({post.method: post.samples}, post.names,
                                         out_dir / "corner.png", truths, labels=labels)
     history = post.history or {}
@@ -119,6 +120,7 @@ def write_predictive(
     for row in rows:
         log.info("held-out load %g m: %.1f %% inside the 95 %% interval, R2 %.3f, MSE %.3g",
                  row["load"], 100 * row["coverage"], row["r2"], row["mse"])
+    log.info("drawing the posterior predictive figure")
     return rows, {"predictive": path, "predictive_plot": plots.predictive_plot(
         pred, held_out, out_dir / "predictive.png")}
 
