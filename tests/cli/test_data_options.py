@@ -41,3 +41,18 @@ def test_options_that_do_not_apply_are_refused(masked_file: Path) -> None:
         load_data(DataConfig(path=str(masked_file), lines={"top": "seg"}), masked_file.parent)
     with pytest.raises(ValueError, match="apply to a file"):
         load_data(DataConfig(format="csv"), masked_file.parent)
+
+
+def test_an_odisi_export(tmp_path: Path) -> None:
+    """``data.lines`` names the ODiSI segments (or x ranges), ``data.odisi`` the other options."""
+    rows = ["Test name:\tdeck", "Units:\tmicrostrain", "-" * 20,
+            "Gage/Segment Name\t\t\ttop[0]\ttop[1]\ttop[2]", "x-axis\t\t\t1.0\t1.5\t2.0", "tare\t\t\t0.0\t0.0\t0.0",
+            "2024-05-02 10:00:00.000000\tmeasurement\tstrain\t1.0\t\t3.0",
+            "2024-05-02 10:05:00.000000\tmeasurement\tstrain\t4.0\t5.0\t6.0"]
+    (tmp_path / "run.tsv").write_text("\n".join(rows) + "\n")
+    windows = {39.8: ["2024-05-02 09:59:59", "2024-05-02 10:00:01"], 47.5: ["2024-05-02 10:04:59", "2024-05-02 10:05:01"]}
+    for lines in ({"deck": "top"}, {"deck": [0.9, 2.1]}):
+        m = load_data(DataConfig(path="run.tsv", lines=lines, missing="mask", odisi={"windows": windows},
+                                 resolution=None), tmp_path)
+        assert m.lines == ("deck",) and m.n_missing == 1
+        np.testing.assert_array_equal(m.y, [[1.0, np.nan, 3.0], [4.0, 5.0, 6.0]])

@@ -134,3 +134,10 @@ def test_per_line_noise_and_predictive_refusal(rng: np.random.Generator) -> None
     assert Problem(TwoLineModel(), campaign(rng), "matern32", PRIORS, sigma_e=0.3).sigma_e == 0.3
     with pytest.raises(ValueError, match=r"posterior predictive: one sensor line .* 2 sensor lines \['bottom', 'top'\]"):
         problem_of(None, p)
+
+
+def test_emulator_method_takes_one_complete_line(rng: np.random.Generator) -> None:
+    import torchshm
+
+    with pytest.raises(ValueError, match="method='emulator': one sensor line with every reading valid only"):
+        torchshm.identify(Problem(TwoLineModel(), campaign(rng), "matern32", PRIORS), method="emulator")
