@@ -46,3 +46,23 @@ def test_readme_run_identifies_every_parameter_within_its_95_interval(tmp_path: 
         assert float(rows[name]["q2.5"]) < value < float(rows[name]["q97.5"]), (name, rows[name])
     for name in ("posterior.nc", "corner.png", "elbo.png", "identify.log"):
         assert (tmp_path / "run" / name).is_file(), name
+
+
+def test_predictive_of_a_field_is_refused_in_one_line() -> None:
+    import sys
+
+    import numpy as np
+
+    import torchshm
+    from torchshm.predictive.selection import problem_of
+
+    sys.path.insert(0, str(REPO))
+    from examples.plate_dic.plate import PlateDIC
+
+    m = torchshm.load_measurements(EXAMPLE / "campaign.csv")
+    problem = torchshm.Problem(PlateDIC(), m.select([0.5]), priors={
+        "E": torchshm.Uniform(10, 60), "log10_k": torchshm.Uniform(4, 9),
+        "sigma_a": torchshm.Uniform(0, 20), "length": torchshm.Uniform(0, 2)})
+    with pytest.raises(ValueError, match=r"positions along a line only; this problem's x are \(192, 2\) coordinates"):
+        problem_of(None, problem)  # type: ignore[arg-type]
+    assert np.isfinite(problem.log_joint(np.array([32.0, 6.5, 4.0, 0.3])))

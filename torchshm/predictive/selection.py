@@ -24,7 +24,8 @@ def problem_of(post: PosteriorLike, problem: Problem | None) -> Problem:
 
     Raises:
         ValueError: when neither is available (e.g. a posterior loaded from file), or for a
-            problem of several sensor lines or interpolated positions (not predicted yet).
+            problem of several sensor lines, interpolated positions or `(n, d)` coordinates
+            (not predicted yet).
     """
     problem = problem if problem is not None else getattr(post, "problem", None)
     if problem is None:
@@ -39,6 +40,9 @@ def problem_of(post: PosteriorLike, problem: Problem | None) -> Problem:
     if len(lines) > 1 or (positions is not None and not positions.exact):
         what = f"{len(lines)} sensor lines {lines}" if len(lines) > 1 else "interpolated positions"
         raise ValueError(f"posterior predictive: one sensor line matched exactly only; this problem has {what}")
+    if np.ndim(problem.measurements.x) != 1:
+        raise ValueError("posterior predictive: positions along a line only; this problem's x are "
+                         f"{np.shape(problem.measurements.x)} coordinates of a field")
     return problem
 
 
