@@ -123,6 +123,21 @@ def test_state_space_draws_have_the_eq21_covariance(kernel: str) -> None:
     np.testing.assert_allclose(np.cov(resid, rowvar=False), expected.numpy(), atol=0.04)
 
 
+def test_draws_in_blocks_have_the_eq21_covariance(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Blocks of two positions (four blocks, one padded position): the same covariance."""
+    from torchshm.likelihood import statespace
+
+    monkeypatch.setattr(statespace, "draw_block_size", lambda n, columns: 2)
+    x = torch.tensor([0.0, 0.3, 0.3, 0.9, 1.4, 2.6, 3.0], dtype=torch.float64)
+    n = 40_000
+    sigma_a, length = torch.full((n,), 0.8, dtype=torch.float64), torch.full((n,), 1.2, dtype=torch.float64)
+    kern = get_kernel("matern32")
+    draws = statespace.sample(x, kern, sigma_a, length, 1, torch.Generator().manual_seed(3))[:, 0]
+    assert draws.shape == (n, 7)
+    np.testing.assert_allclose(draws.mean(0).numpy(), 0.0, atol=0.03)
+    np.testing.assert_allclose(np.cov(draws.numpy(), rowvar=False), kern(x, sigma_a=0.8, length=1.2).numpy(), atol=0.03)
+
+
 def test_draws_reuse_noise_across_responses() -> None:
     x = torch.linspace(0.0, 3.0, 9, dtype=torch.float64)
     eta1 = torch.randn(20, 2, 9, generator=torch.Generator().manual_seed(1), dtype=torch.float64)

@@ -207,16 +207,25 @@ def _matrix_merge(A: Tensor, b: Tensor, C: Tensor, eta: Tensor, J: Tensor) -> Te
     return out.movedim(0, -1)
 
 
+def draw_block_size(n: int, columns: int) -> int:
+    """Positions per block for draws at `n` positions with ``columns = B * L`` draws: enough
+    blocks that each step works on about 2^16 numbers, at most ``sqrt(n)`` blocks."""
+    blocks = min(max(1, -(-(2**16) // columns)), max(1, math.isqrt(n)))
+    return -(-n // blocks)
+
+
 def sample(
     x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, n_loads: int, generator: torch.Generator
 ) -> Tensor:
     """Draws of the discrepancy ``f`` `B x L x n` at sorted positions ``x``, O(n) time.
 
-    ``s_1 = chol(sigma**2 P) z_1``, ``s_k = F_k s_{k-1} + Q_k^{1/2} z_k`` along the positions,
-    all `B x L` draws at once. ``F`` and the square root of ``Q`` (symmetric eigendecomposition,
-    exact at a zero step) are computed once per distinct step length, so a regular pitch costs a
-    few small factorisations; ``z_k`` (`B x L x p`) are drawn from ``generator`` position by
-    position, on the CPU.
+    ``s_1 = chol(sigma**2 P) z_1``, ``s_k = F_k s_{k-1} + Q_k^{1/2} z_k``, in blocks: every
+    block at once runs the recursion from a zero start and keeps ``Phi_k``, the product of its
+    transitions so far; the states before each block follow block after block; each position
+    then adds ``(Phi_k s_0)_1``. ``F`` and the square root of ``Q`` (symmetric
+    eigendecomposition, exact at a zero step) are computed once per distinct step length.
+    ``z`` is drawn from ``generator`` step by step within the blocks, `p x B x L x blocks` at
+    a time, on the CPU.
 
     Args:
         x: `n` sorted positions [m].
@@ -225,20 +234,54 @@ def sample(
         n_loads: `L`, independent draws per parameter vector.
         generator: source of the standard normals.
     """
-    B, n, p = sigma_a.shape[0], x.shape[0], kern.state_dim
+    B, n, p, L = sigma_a.shape[0], x.shape[0], kern.state_dim, n_loads
     step = torch.diff(x, prepend=x[:1])
     values, index = torch.unique(step, return_inverse=True)
     F, P = kern.state_space(values[None, :], length[:, None].clamp_min(0.0))  # B x U x p x p
     P = P * sigma_a.square()[:, None, None, None]
     Q = P - F @ P @ F.mT
-    roots = torch.cat([_root(P[:, :1]), _root(0.5 * (Q + Q.mT))], dim=1)  # B x (1 + U) x p x p
-    out = x.new_empty(B, n_loads, n)
-    state = x.new_zeros(B, n_loads, p)
-    for k, u in enumerate(index.tolist()):
-        z = torch.randn((B, n_loads, p), generator=generator, dtype=x.dtype).to(x.device)
-        noise = (roots[:, u + 1 if k else 0, None] @ z[..., None])[..., 0]
-        state = noise if k == 0 else (F[:, u, None] @ state[..., None])[..., 0] + noise
-        out[..., k] = state[..., 0]
+    zero = torch.zeros_like(F[:, :1])
+    # kinds of position: 0 the first (no transition), 1..U a step, U + 1 padding (nothing)
+    F = torch.cat([zero, F, zero], dim=1).permute(2, 3, 0, 1)  # p x p x B x (U + 2)
+    R = torch.cat([_root(P[:, :1]), _root(0.5 * (Q + Q.mT)), zero], dim=1).permute(2, 3, 0, 1)
+    kind = torch.cat([index.new_zeros(1), index[1:] + 1])
+    size = draw_block_size(n, B * L)
+    blocks = -(-n // size)
+    kinds = _layout(kind, size, blocks, F.shape[-1] - 1).to(x.device)  # size x blocks
+    local = x.new_empty(size, L, B, blocks)  # columns L x B x G: F varies with the last two
+    rows = x.new_empty(size, p, 1, B, blocks)
+    state, new = x.new_zeros(p, L, B, blocks), x.new_empty(p, L, B, blocks)
+    Phi = torch.eye(p, dtype=x.dtype, device=x.device)[..., None, None, None].repeat(1, 1, 1, B, blocks)
+    z = torch.empty((p, L, B, blocks), dtype=x.dtype)
+    for j, kj in enumerate(kinds):
+        Fj, Rj = (t.index_select(3, kj)[:, :, None] for t in (F, R))  # p x p x 1 x B x G
+        zj = z.normal_(generator=generator).to(x.device)
+        for i in range(p):
+            torch.mul(Fj[i, 0], state[0], out=new[i])
+            for k in range(1, p):
+                new[i].addcmul_(Fj[i, k], state[k])
+            for k in range(p):
+                new[i].addcmul_(Rj[i, k], zj[k])
+        state, new = new, state
+        Phi = _mm(Fj, Phi)
+        local[j], rows[j] = state[0], Phi[0]
+    start = x.new_zeros(p, L, B)
+    starts = []
+    for g in range(blocks):
+        starts.append(start)
+        start = _mm(Phi[..., g], start[:, None])[:, 0] + state[..., g]
+    start = torch.stack(starts, dim=-1)  # p x L x B x G
+    for k in range(p):
+        local.addcmul_(rows[:, k], start[k])
+    out = _transpose(local.reshape(size, -1)).reshape(L, B, blocks * size)
+    return out.permute(1, 0, 2)[..., blocks * size - n :]  # a strided view, positions contiguous
+
+
+def _transpose(t: Tensor, chunk: int = 2048) -> Tensor:
+    """``t.T.contiguous()`` for a tall `a x b` matrix, a few columns at a time (cache-friendly)."""
+    out = t.new_empty(t.shape[1], t.shape[0])
+    for start in range(0, t.shape[1], chunk):
+        out[start : start + chunk] = t[:, start : start + chunk].T
     return out
 
 
