@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 
 from torchshm.physics import Bridge705
 from torchshm.predictive.emulator import PLAIN, clean_design, fit_emulator, transform_options
@@ -60,3 +61,45 @@ def test_transform_choice() -> None:
     assert transform_options(object()) == PLAIN
     assert transform_options(Bridge705.__new__(Bridge705)) == {
         "log_inputs": (0,), "modulus": 0, "relative_to_modulus": (1,)}
+
+
+def test_compressed_targets_give_the_same_marginal_likelihood() -> None:
+    """At any hyperparameters, N compressed outputs give the mean log marginal likelihood per
+    output of all m outputs (it depends on the targets only through YᵀY / m)."""
+    from torchshm.predictive.emulator import compressed_targets
+    from torchshm.surrogate.gp import SharedKernelGP
+
+    rng = np.random.default_rng(3)
+    inputs = torch.as_tensor(rng.uniform(0, 1, (15, 2)))
+    targets = torch.as_tensor(rng.normal(0, 1, (200, 15)))  # m = 200 outputs of N = 15 runs
+    full, small = SharedKernelGP(inputs, targets), SharedKernelGP(inputs, compressed_targets(targets))
+    assert small.train_targets.shape == (15, 15)
+    for lengthscale, noise in ((0.3, 1e-4), (1.5, 0.2)):
+        for gp in (full, small):
+            gp.covar_module.base_kernel.lengthscale = lengthscale
+            gp.likelihood.noise = noise
+        with torch.no_grad():
+            a, b = float(full.log_marginal_likelihood().mean()), float(small.log_marginal_likelihood().mean())
+        assert a == pytest.approx(b, rel=1e-10)
+
+
+def test_many_outputs_fit_like_the_full_fit() -> None:
+    """More outputs than runs: the compressed fit finds the full fit's hyperparameters."""
+    from torchshm.surrogate import ResponseTransform
+    from torchshm.surrogate.surrogate import build_gp
+
+    rng = np.random.default_rng(4)
+    design = np.column_stack([rng.uniform(20, 50, 25), rng.uniform(4, 12, 25)])
+    outputs = response(design)  # 25 runs x 60 outputs
+    emulator = fit_emulator(design, outputs, X, LOADS)
+    theta, out = clean_design(design, outputs)
+    scaling = ResponseTransform.fit(theta, out.reshape(25, -1), standardize="output", **PLAIN)
+    gp = build_gp(scaling, theta, out, "rbf", 1e-10)
+    full = gp.fit()
+    assert emulator.metadata["log_marginal_likelihood"] == pytest.approx(full, rel=1e-6, abs=1e-6)
+    test = np.column_stack([rng.uniform(25, 45, 50), rng.uniform(5, 11, 50)])
+    mean, _ = emulator.predict(test)
+    theta_test = torch.as_tensor(test, dtype=torch.float64)
+    other = scaling.strains(theta_test, gp.predict(scaling.inputs(theta_test), False)[0])
+    np.testing.assert_allclose(mean.reshape(50, -1).detach().numpy(), other.detach().numpy(), atol=1e-4)
+

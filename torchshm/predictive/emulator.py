@@ -9,6 +9,13 @@ cases and positions. Nothing here calls a forward model: the emulator sees array
 Input and output transforms (see :mod:`torchshm.surrogate.transforms`) are chosen by
 :func:`transform_options`: the surrogate's own when the problem's model is a surrogate, the
 model's ``surrogate_transform`` attribute when it declares one, plain scaling otherwise.
+
+At dense sensing (thousands of positions, so ``m`` = load cases x positions outputs in the
+tens of thousands) the hyperparameters are fitted on ``N`` compressed outputs: the mean log
+marginal likelihood per output, ``-tr(C⁻¹ YᵀY) / (2m) - log|C| / 2 - N log(2 pi) / 2``,
+depends on the `m x N` targets ``Y`` only through ``YᵀY`` (`N x N`), so any ``Y'`` with
+``Y'ᵀY' / m' = YᵀY / m`` gives the same objective and optimum; each optimiser step then costs
+O(N³) instead of O(N² m). The fitted GP keeps all `m` outputs for prediction.
 """
 
 from __future__ import annotations
@@ -23,6 +30,7 @@ from torch import Tensor
 
 from torchshm.forward.protocol import ForwardModel
 from torchshm.surrogate import ResponseTransform, Surrogate
+from torchshm.surrogate.gp import SharedKernelGP
 from torchshm.surrogate.surrogate import build_gp
 from torchshm.surrogate.transforms import PLAIN, transform_of
 
@@ -92,11 +100,29 @@ def fit_emulator(
     options = dict(PLAIN if transform is None else transform)
     scaling = ResponseTransform.fit(theta, out.reshape(theta.shape[0], -1), standardize="output", **options)
     gp = build_gp(scaling, theta, out, kernel, min_noise)
+    targets = gp.train_targets  # m x N
+    fitted = gp
+    if targets.shape[0] > targets.shape[1]:  # more outputs than runs: fit on N compressed ones
+        fitted = SharedKernelGP(gp.train_inputs[0], compressed_targets(targets), kernel, min_noise)
     with warnings.catch_warnings():
         # outputs of smooth models are nearly noise-free: a jitter on the diagonal is expected
         warnings.simplefilter("ignore", NumericalWarning)
-        log_ml = gp.fit(lengthscales=lengthscales, max_iter=max_iter)
+        log_ml = fitted.fit(lengthscales=lengthscales, max_iter=max_iter)
+        if fitted is not gp:
+            gp.load_state_dict(fitted.state_dict())
+            gp.freeze()
     names = tuple(names or [f"theta_p[{i}]" for i in range(theta.shape[1])])
     metadata = {"log_marginal_likelihood": log_ml, "purpose": "posterior predictive emulator"}
     return Surrogate(gp, scaling, torch.as_tensor(x), torch.as_tensor(loads), names,
                      "stored-evaluations", theta, out, metadata)
+
+
+def compressed_targets(targets: Tensor) -> Tensor:
+    """`N x N` targets ``Y'`` with ``Y'ᵀY' / N = YᵀY / m`` for `m x N` targets ``Y``: the same
+    mean log marginal likelihood per output for every kernel and noise (module docstring).
+
+    ``Y' = sqrt(N / m) diag(sqrt(w)) Vᵀ`` from the eigendecomposition ``YᵀY = V diag(w) Vᵀ``.
+    """
+    m, N = targets.shape
+    w, V = torch.linalg.eigh(targets.mT @ targets)
+    return (V * (w.clamp_min(0.0) * (N / m)).sqrt()).mT.contiguous()
