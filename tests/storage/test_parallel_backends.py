@@ -33,6 +33,18 @@ def test_joblib_two_processes_equal_serial(tmp_path: Path) -> None:
     assert again.n_new == 0 and len(read_counter(counter)) == len(calls)
 
 
+def test_a_parallel_model_through_a_store_keeps_its_workers(tmp_path: Path) -> None:
+    from torchshm.forward import ParallelModel
+
+    theta, counter = grid(3, 2), str(tmp_path / "calls.txt")
+    store = EvaluationStore(tmp_path / "s.sqlite")
+    result = evaluate(ParallelModel(GridModel(delay=0.05, counter=counter), n_jobs=2), theta, store=store)
+    assert result.n_new == 6 and result.ok.all()
+    assert np.array_equal(result.outputs, evaluate(GridModel(), theta).outputs)
+    assert len({pid for _, _, pid in read_counter(counter)} - {os.getpid()}) == 2  # both workers ran
+    assert {r.pid for r in store.records(GridModel())} != {os.getpid()}  # stored by the workers
+
+
 def test_submitit_debug_executor_writes_through_spool(tmp_path: Path) -> None:
     theta = grid(3, 2)
     store = EvaluationStore(tmp_path / "s.sqlite")
