@@ -161,8 +161,8 @@ class Eq21:
 
         Standard normals come from ``generator`` in a fixed order: `B x L x n` for the
         multiplicative term, then for the dense and diagonal forms `B x L x n` multiplied by the
-        factor of ``K + sigma_e**2 I``; for the state space `B x L x p` process noise at each
-        position in ascending order, then `B x L x n` measurement noise.
+        factor of ``K + sigma_e**2 I``; for the state space process noise block by block
+        (:func:`~torchshm.likelihood.statespace.sample`), then `B x L x n` measurement noise.
 
         Raises:
             ValueError: if a dense discrepancy covariance is not positive definite.
