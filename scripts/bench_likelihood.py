@@ -18,13 +18,14 @@ Then the O(n) state-space form (``docs/likelihood.md``):
 - n = 10^5 points x 12 load cases, one parameter vector, the three Markov kernels, beside
   celerite2's exact exponential kernel (``RealTerm``) on the same positions, residuals and
   heteroscedastic diagonals (celerite2 is a benchmark-only dependency, imported only here);
+- predictive draws of the discrepancy, 2,000 x 4 load cases x 7,001 positions (0.005 m);
 - n = 10^3 .. 10^6 in one load case (``matern32``): time and peak memory growth (peak resident
   set during the call minus the resident set before it), each size in a fresh subprocess.
 
 Usage::
 
     python scripts/bench_likelihood.py [--repeats 20] [--slow-repeats 3] [--seed 0]
-        [--only-dense | --only-scaling | --only-celerite]
+        [--only-dense | --only-scaling | --only-celerite | --only-draws]
 """
 
 from __future__ import annotations
@@ -175,14 +176,37 @@ def against_celerite(args: argparse.Namespace, n: int = 100_000, n_loads: int = 
 
     wall_ref, cpu_ref, ref = median_seconds(celerite_exponential, args.slow_repeats)
     print(f"\nn = {n:,} x {n_loads} load cases, one parameter vector (median of {args.slow_repeats}):\n")
-    print("| method | wall [s] | CPU [s] | ÷ celerite2 exponential, wall | value |")
-    print("| --- | ---: | ---: | ---: | ---: |")
-    print(f"| celerite2 `RealTerm` (exact exponential), C++ | {wall_ref:.3f} | {cpu_ref:.3f} | 1x | {ref:.6f} |")
+    print("| method | wall [s] | CPU [s] | ÷ celerite2, wall | ÷ celerite2, CPU | value |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: |")
+    print(f"| celerite2 `RealTerm` (exact exponential), C++ | {wall_ref:.3f} | {cpu_ref:.3f} | 1x | 1x | {ref:.6f} |")
     for kernel in ("exponential", "matern32", "matern52"):
         fn = lambda: torchshm.log_likelihood(y, eta, x, kernel, SIGMA_A, LENGTH, SIGMA_M, SIGMA_E)  # noqa: E731,B023
         with torch.no_grad():
             wall, cpu, value = median_seconds(fn, args.slow_repeats)
-        print(f"| `torchshm.log_likelihood`, {kernel} | {wall:.3f} | {cpu:.3f} | {wall / wall_ref:.2f}x | {float(value):.6f} |")
+        print(
+            f"| `torchshm.log_likelihood`, {kernel} | {wall:.3f} | {cpu:.3f} | {wall / wall_ref:.2f}x "
+            f"| {cpu / cpu_ref:.2f}x | {float(value):.6f} |"
+        )
+
+
+def draws(args: argparse.Namespace, n_draws: int = 2000, n_loads: int = 4) -> None:
+    """Predictive draws of the discrepancy at the 0.005 m pitch (7,001 positions), the
+    posterior predictive's size: `n_draws` parameter vectors x `n_loads` load cases."""
+    from torchshm.kernels import get_kernel
+    from torchshm.likelihood import statespace
+
+    x = torch.round(35.0 + 0.005 * torch.arange(7001, dtype=torch.float64), decimals=10)
+    sigma_a = torch.full((n_draws,), SIGMA_A, dtype=torch.float64)
+    length = torch.full((n_draws,), LENGTH, dtype=torch.float64)
+    print(f"\nState-space draws, {n_draws:,} x {n_loads} load cases x 7,001 positions (one call each):\n")
+    print("| kernel | wall [s] | CPU [s] | sample variance / σa² |")
+    print("| --- | ---: | ---: | ---: |")
+    for kernel in ("exponential", "matern32", "matern52"):
+        fn = lambda: statespace.sample(x, get_kernel(kernel), sigma_a, length, n_loads, torch.Generator().manual_seed(args.seed))  # noqa: E731,B023
+        start, start_cpu = time.perf_counter(), time.process_time()
+        f = fn()
+        wall, cpu = time.perf_counter() - start, time.process_time() - start_cpu
+        print(f"| {kernel} | {wall:.2f} | {cpu:.2f} | {float(f.var()) / SIGMA_A**2:.4f} |")
 
 
 def _rss_bytes() -> int:
@@ -226,6 +250,7 @@ def main() -> None:
     parser.add_argument("--only-dense", action="store_true", help="only the O(n) (dense fibre) part")
     parser.add_argument("--only-scaling", action="store_true", help="only n = 10^3 .. 10^6")
     parser.add_argument("--only-celerite", action="store_true", help="only n = 10^5 x 12 beside celerite2")
+    parser.add_argument("--only-draws", action="store_true", help="only the O(n) predictive draws")
     parser.add_argument("--one-size", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one_size:
@@ -234,6 +259,10 @@ def main() -> None:
     print(f"uptime: {os.getloadavg()} (1, 5, 15 min load averages)")
     if args.only_scaling:
         scaling(args)
+        return
+    if args.only_draws:
+        draws(args)
+        print(f"\nuptime after: {os.getloadavg()}")
         return
     if args.only_celerite:
         against_celerite(args)
@@ -267,9 +296,10 @@ def main() -> None:
 
 
 def dense_fibre(args: argparse.Namespace) -> None:
-    """The O(n) part: crossover, 10^5 x 12 beside celerite2, scaling to 10^6."""
+    """The O(n) part: crossover, 10^5 x 12 beside celerite2, draws, scaling to 10^6."""
     crossover(args)
     against_celerite(args)
+    draws(args)
     scaling(args)
     print(f"\nuptime after: {os.getloadavg()}")
 
