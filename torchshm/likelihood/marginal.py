@@ -174,6 +174,9 @@ class Eq21:
             order = self._order()
             f = statespace.sample(x[order], self.kern, self.sigma_a, self.length, eta.shape[1], generator)
             e = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
+            if bool((order[1:] > order[:-1]).all()):  # sorted positions: no gather and scatter
+                out += f + self.sigma_e * e
+                return out
             out[..., order] += f + self.sigma_e * e[..., order]
             return out
         z2 = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
