@@ -21,27 +21,11 @@ from torch import Tensor
 from torchshm.inference.adaptive.field import FieldEmulator
 from torchshm.likelihood import log_likelihood
 
-#: parameters of the discrepancy (everything else in ``problem.names`` is physical)
-STATISTICAL = ("sigma_a", "length")
-
 
 def physical_columns(problem: Any, theta: np.ndarray) -> np.ndarray:
-    """Full physical vectors θp `B x P` (fixed values filled in) of rows ``theta`` `B x D`."""
-    theta = np.atleast_2d(np.asarray(theta, dtype=np.float64))
-    cols = []
-    for name in problem.physical_names:
-        if name in problem.names:
-            cols.append(theta[:, problem.names.index(name)])
-        else:
-            cols.append(np.full(theta.shape[0], float(problem.priors[name])))
-    return np.column_stack(cols)
-
-
-def statistical_column(problem: Any, theta: np.ndarray, name: str) -> np.ndarray:
-    """Values `B` of ``sigma_a`` or ``length`` (inferred or fixed; 0 when absent)."""
-    if name in problem.names:
-        return theta[:, problem.names.index(name)]
-    return np.full(theta.shape[0], float(problem.priors.get(name, 0.0)))
+    """Full physical vectors θp `B x P` (fixed values filled in) of rows ``theta`` `B x D`
+    (the problem's :class:`~torchshm.problem.ParameterSplit`)."""
+    return problem.split.physical(np.atleast_2d(np.asarray(theta, dtype=np.float64))).numpy()
 
 
 def noise_levels(sigma_e: float, extra: np.ndarray, step: float = 0.01) -> np.ndarray:
@@ -69,12 +53,12 @@ class EmulatedLogJoint:
         self.y = torch.as_tensor(np.asarray(m.y, dtype=np.float64))
         self.x = torch.as_tensor(np.asarray(m.x, dtype=np.float64))
 
-    def parts(self, theta: np.ndarray) -> tuple[Tensor, Tensor, np.ndarray, np.ndarray]:
-        """Emulator mean and variance `B x L x n`, σa `B` and l `B` of rows `B x D`."""
-        theta = np.atleast_2d(theta)
-        mean, var = self.emulator.predict(torch.as_tensor(physical_columns(self.problem, theta)))
-        sa = statistical_column(self.problem, theta, "sigma_a")
-        ell = statistical_column(self.problem, theta, "length")
+    def parts(self, theta: np.ndarray) -> tuple[Tensor, Tensor, Tensor, Tensor | None]:
+        """Emulator mean and variance `B x L x n`, σa `B` and l `B` (None for a kernel without
+        length) of rows `B x D`, split by ``problem.split`` (fixed values filled in)."""
+        rows = torch.as_tensor(np.atleast_2d(theta), dtype=torch.float64)
+        theta_p, sa, ell = self.problem.split.split(rows)
+        mean, var = self.emulator.predict(theta_p)
         return mean, var, sa, ell
 
     def __call__(self, theta: np.ndarray) -> np.ndarray:
@@ -91,14 +75,13 @@ class EmulatedLogJoint:
         """Emulated log-likelihood `B` of rows `B x D` inside the support."""
         p = self.problem
         mean, var, sa, ell = self.parts(theta)
-        has_length = p.kernel.has_length
         levels = noise_levels(p.sigma_e, var.reshape(var.shape[0], -1).amax(-1).numpy())
         values = np.empty(theta.shape[0])
         for level in np.unique(levels):  # one batched call per noise level
-            rows = np.flatnonzero(levels == level)
-            values[rows] = log_likelihood(
-                self.y, mean[rows], self.x, p.kernel, torch.as_tensor(sa[rows]),
-                torch.as_tensor(ell[rows]) if has_length else None, p.sigma_m, float(level),
+            rows = torch.as_tensor(np.flatnonzero(levels == level))
+            values[rows.numpy()] = log_likelihood(
+                self.y, mean[rows], self.x, p.kernel, sa[rows],
+                None if ell is None else ell[rows], p.sigma_m, float(level),
             ).numpy()
         values[np.isnan(values)] = -np.inf
         return values
@@ -108,14 +91,15 @@ class EmulatedLogJoint:
 
         Returns:
             ``(share, sd_loglik)``, both `B`: the emulator's share of the predictive variance,
-            ``v_j / (v_j + σm² m_j² + σa² + σe²)`` averaged over the measured outputs; and the
-            standard deviation [nats] of the log-likelihood that the emulator error causes,
-            to first order ``sqrt(Σ_j v_j / s_j²)`` with ``s_j²`` the data variance of output j.
+            ``v_j / (v_j + s_j²)`` averaged over the measured outputs, with ``s_j²`` the
+            diagonal of the Eq. (21) covariance (``σm² m_j² + k(x_j, x_j) + σe²``, the kernel's
+            own diagonal); and the standard deviation [nats] of the log-likelihood that the
+            emulator error causes, to first order ``sqrt(Σ_j v_j / s_j²)``.
         """
         p = self.problem
         mean, var, sa, _ = self.parts(theta)
-        sa2 = torch.as_tensor(sa**2)[:, None, None]
-        data = p.sigma_m**2 * mean.square() + sa2 + p.sigma_e**2
+        kernel_diag = p.kernel.diag(self.x, sigma_a=sa)[:, None, :]  # B x 1 x n
+        data = p.sigma_m**2 * mean.square() + kernel_diag + p.sigma_e**2
         share = (var / (var + data)).mean((-1, -2)).numpy()
         sd = (var / data).sum((-1, -2)).sqrt().numpy()
         return share, sd
