@@ -48,6 +48,7 @@ def _app(cfg: DictConfig) -> float | None:
     from torchshm.cli.job import prepare_job, run_job
 
     logging.captureWarnings(True)  # warnings go to the run's log, not to stderr
+    logging.getLogger("arviz.preview").setLevel(logging.WARNING)  # "arviz_base not installed" x3
     out_dir = Path(HydraConfig.get().runtime.output_dir)
     with bad_input_in_job(out_dir):  # only the inputs: a later failure is a failed run
         settings = to_settings(cfg)

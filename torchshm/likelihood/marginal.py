@@ -21,8 +21,10 @@ that would not fit in memory.
 
 from __future__ import annotations
 
+import logging
 import math
 import os
+import time
 from dataclasses import dataclass
 
 import torch
@@ -31,6 +33,10 @@ from torch import Tensor
 from torchshm.kernels import Kernel
 from torchshm.likelihood import statespace
 from torchshm.likelihood.cholesky import cholesky_with_jitter
+
+logger = logging.getLogger(__name__)
+#: seconds between two progress lines of long dense draws
+PROGRESS_EVERY_S = 15.0
 
 LOG_2PI = math.log(2.0 * math.pi)
 #: points per load case from which ``method="auto"`` uses the state-space form (measured)
@@ -185,7 +191,11 @@ class Eq21:
             return out + sd[:, None, :] * z2
         n = x.shape[0]
         step = max(1, SAMPLE_CHUNK_BYTES // (n * n * 8))
+        said = time.monotonic()
         for start in range(0, eta.shape[0], step):
+            if time.monotonic() - said > PROGRESS_EVERY_S:
+                logger.info("drawing: %d of %d parameter vectors done", start, eta.shape[0])
+                said = time.monotonic()
             part = slice(start, start + step)
             noise = torch.full_like(eta[part, :1], self.sigma_e**2)
             cov = covariance(x, self.kern, self.sigma_a[part], self.length[part], noise)
