@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from types import SimpleNamespace
 
 import numpy as np
@@ -32,3 +33,17 @@ def test_coordinates_are_written_on_point_and_axis(tmp_path, rng: np.random.Gene
 def test_positions_keep_the_load_x_layout(tmp_path, rng: np.random.Generator) -> None:
     meas, ds, _ = _saved(tmp_path, np.array([0.0, 0.1, 0.2]), rng)
     assert ds["y"].dims == ("load", "x") and np.array_equal(ds["x"].values, [0.0, 0.1, 0.2])
+
+
+def test_sensor_lines_and_their_noise_levels_are_written(tmp_path, rng: np.random.Generator) -> None:
+    x = np.array([0.0, 0.1, 0.2, 0.0, 0.1])
+    meas = torchshm.Measurements(x, rng.normal(size=(2, 5)), [0.5, 1.0], sigma_e={"a": 0.1, "b": 0.3},
+                                 line=["a", "a", "a", "b", "b"])
+    post = Posterior(names=["a"], method="emcee", samples=rng.normal(size=(20, 1)), n_chains=2,
+                     problem=SimpleNamespace(measurements=meas))  # type: ignore[arg-type]
+    path = post.save(tmp_path / "post.nc")
+    with xr.open_dataset(path, group="observed_data", engine="h5netcdf") as ds:
+        assert list(ds["line"].values) == ["a", "a", "a", "b", "b"]
+        assert json.loads(ds.attrs["sigma_e"]) == {"a": 0.1, "b": 0.3}
+        assert np.array_equal(ds["y"].values, meas.y)
+    assert load_posterior(path).samples.shape == (20, 1)

@@ -69,12 +69,18 @@ def _observed_group(post: Posterior) -> xr.Dataset | None:
         return None
     y = np.asarray(meas.y, dtype=np.float64)
     x = np.asarray(meas.x, dtype=np.float64)
-    attrs = {"units": "microstrain", "sigma_e": float(meas.sigma_e)}
+    sigma_e = meas.sigma_e  # one level, or one per sensor line (written as JSON)
+    attrs = {"units": "microstrain", "sigma_e": float(sigma_e) if not isinstance(sigma_e, dict)
+             else json.dumps({str(k): float(v) for k, v in sigma_e.items()})}
     loads = np.asarray(meas.loads, dtype=np.float64)
+    line = getattr(meas, "line", None)
     if x.ndim == 2:  # (n, d) coordinates of a field: y on (load, point), x on (point, axis)
         data = {"y": (("load", "point"), y), "x": (("point", "axis"), x)}
         return xr.Dataset(data, coords={"load": loads}, attrs=attrs)
-    return xr.Dataset({"y": (("load", "x"), y)}, coords={"load": loads, "x": x}, attrs=attrs)
+    data = {"y": (("load", "x"), y)}
+    if line is not None:  # the sensor line of each reading (positions may repeat across lines)
+        data["line"] = (("x",), np.asarray([str(v) for v in line], dtype=object))
+    return xr.Dataset(data, coords={"load": loads, "x": x}, attrs=attrs)
 
 
 def _history_group(post: Posterior) -> xr.Dataset:
