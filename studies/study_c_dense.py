@@ -5,7 +5,7 @@
 
 For each pitch: the finite element model ``torchshm.bridge705(pitch=...)`` and the campaign
 ``torchshm.synthetic_campaign(seed=0, pitch=...)``, Matérn 3/2, VBMC on the eleven load cases
-other than 70.4 m (as sub-case C1), prediction of 70.4 m. Above 1,500 points per load case the
+other than 70.4 m (as sub-case C1), prediction of 70.4 m. From 1,000 points per load case the
 likelihood is the exact O(n) state-space form (``docs/likelihood.md``). Writes ``table.md``
 (posterior, KL, 95 % interval widths, R² and coverage at the 0.1 m positions and at every
 position, wall times) and ``fig.png`` (posterior intervals against the pitch) into ``--out``.
