@@ -166,12 +166,13 @@ def top_face_truth(truth: CampaignTruth) -> np.ndarray:
     from torchshm.physics.truth import TruthConfig
 
     default = TruthConfig()
-    if (float(truth.attrs["truth_E_c"]), float(truth.attrs["truth_log10_K_r"])) != (default.E_c, default.log10_K_r):
+    made_for = (float(truth.attrs["truth_E_c"]), float(truth.attrs["truth_log10_K_r"]))
+    if made_for != (default.E_c, default.log10_K_r):
         raise ValueError("synthetic_campaign: lines=2 needs the shipped truth parameters")
     pitch = float(np.round(np.median(np.diff(truth.x)), 9))
     x, strain = _top_strain(pitch, float(truth.x[0]), float(truth.x[-1]))
     if x.shape != truth.x.shape or not np.allclose(x, truth.x, atol=1e-9, rtol=0.0):
-        raise ValueError("synthetic_campaign: lines=2 needs equally spaced positions from the truth's sensors")
+        raise ValueError("synthetic_campaign: lines=2 needs the truth's equally spaced sensor positions")
     return strain.copy()
 
 
@@ -187,8 +188,8 @@ def _top_strain(pitch: float, start: float, end: float) -> tuple[np.ndarray, np.
     model = dataclasses.replace(default.model, sensor_pitch=pitch, sensor_start=start, sensor_end=end)
     config = dataclasses.replace(default, model=model)
     mesh, c_b = truth_mesh(config)
-    loads = [spread_loads(mesh, model.truck, front, model.length, config.load_spread) for front in model.loads]
-    U = solve(mesh.frame, torch.stack(loads, dim=1))
+    forces = [spread_loads(mesh, model.truck, f, model.length, config.load_spread) for f in model.loads]
+    U = solve(mesh.frame, torch.stack(forces, dim=1))
     mid = 0.5 * (mesh.deck_x[1:] + mesh.deck_x[:-1])
     to_pier = np.min(np.abs(mid[:, None] - model.pier_x()[None, :]), axis=1)
     depth = model.deck.depth + config.haunch_depth * np.clip(1.0 - to_pier / config.haunch_length, 0.0, None)

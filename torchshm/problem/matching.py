@@ -71,7 +71,9 @@ def match_measured(measurements: Any, model: Any, match: str = "exact") -> Posit
         raise ValueError(f"Problem: match must be 'exact' or 'interpolate', got {match!r}")
     model_x = as_numpy(model.x).astype(np.float64)
     model_line = getattr(model, "line", None)
-    labels = None if model_line is None else np.array([str(v) for v in np.asarray(model_line).ravel()], dtype=object)
+    labels = None
+    if model_line is not None:
+        labels = np.array([str(v) for v in np.asarray(model_line).ravel()], dtype=object)
     if labels is not None and labels.size != model_x.shape[0]:
         raise ValueError(f"Problem: model.line has {labels.size} labels for {model_x.shape[0]} positions")
     slices = measurements.line_slices()

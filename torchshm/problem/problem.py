@@ -112,7 +112,7 @@ class Problem:
         self._y = torch.as_tensor(np.asarray(measurements.y, dtype=np.float64))
         self._x = torch.as_tensor(np.asarray(measurements.x, dtype=np.float64))
         mask = getattr(measurements, "mask", np.ones(self._y.shape, dtype=bool))
-        slices = measurements.line_slices() if hasattr(measurements, "line_slices") else {None: slice(0, self._x.shape[0])}
+        slices = getattr(measurements, "line_slices", lambda: {None: slice(0, self._x.shape[0])})()
         self.blocks = make_blocks(
             self._x, mask, slices, self.sigma_e, {g: i for i, g in enumerate(groups)} if groups else None
         )
