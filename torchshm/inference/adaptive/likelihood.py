@@ -76,6 +76,12 @@ class EmulatedLogJoint:
         p = self.problem
         mean, var, sa, ell = self.parts(theta)
         levels = noise_levels(p.sigma_e, var.reshape(var.shape[0], -1).amax(-1).numpy())
+        if p.kernel.name == "independent":  # covariance (σa² + σe²) I + σm² diag(m²): the
+            extra = torch.as_tensor(levels**2 - p.sigma_e**2)  # raised noise folds into σa
+            values = log_likelihood(self.y, mean, self.x, p.kernel, (sa.square() + extra).sqrt(),
+                                    None, p.sigma_m, p.sigma_e).numpy()
+            values[np.isnan(values)] = -np.inf
+            return values
         values = np.empty(theta.shape[0])
         for level in np.unique(levels):  # one batched call per noise level
             rows = torch.as_tensor(np.flatnonzero(levels == level))
