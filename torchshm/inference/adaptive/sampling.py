@@ -18,6 +18,7 @@ import numpy as np
 from pyvbmc import VariationalPosterior
 from pyvbmc.parameter_transformer import ParameterTransformer
 from scipy.special import logsumexp
+from scipy.stats import chi2
 from sklearn.mixture import GaussianMixture
 
 LogDensity = Callable[[np.ndarray], np.ndarray]
@@ -27,15 +28,51 @@ def run_chain(log_joint: LogDensity, start: np.ndarray, n_steps: int, seed: int,
               ) -> tuple[np.ndarray, np.ndarray]:
     """emcee from walkers ``start`` `W x D` for ``n_steps``; the second half is kept.
 
+    Stragglers (walkers far below the others in log density, see :func:`straggler_gap`) are
+    moved onto good walkers before the chain, and the samples of a walker that still lags in
+    the kept half are left out: a walker stranded where the emulator extrapolates would
+    otherwise stay there, and the batch rule would spend runs chasing it.
+
     Returns:
         ``(samples, last)``: `S x D` samples (step-major) and the final walkers `W x D`.
     """
     n_walkers, dim = start.shape
+    start = regroup(log_joint, start, seed)
     sampler = emcee.EnsembleSampler(n_walkers, dim, log_joint, vectorize=True)
     state = emcee.State(start, random_state=np.random.RandomState(seed).get_state())
     sampler.run_mcmc(state, int(n_steps), progress=False)
-    chain = sampler.get_chain()
-    return chain[int(n_steps) // 2:].reshape(-1, dim), chain[-1]
+    chain = sampler.get_chain()[int(n_steps) // 2:]
+    level = np.median(sampler.get_log_prob()[int(n_steps) // 2:], axis=0)  # per walker
+    keep = level >= np.max(level) - straggler_gap(dim)
+    if not keep.any():
+        keep[:] = True
+    return chain[:, keep].reshape(-1, dim), sampler.get_chain()[-1]
+
+
+def straggler_gap(dim: int) -> float:
+    """How far [nats] below the best walker a walker counts as stranded: half the
+    1 - 1e-6 quantile of chi-square with ``dim`` degrees of freedom (a Gaussian posterior puts
+    a draw that far below its mode once in a million)."""
+    return 0.5 * float(chi2.ppf(1 - 1e-6, dim))
+
+
+def regroup(log_joint: LogDensity, walkers: np.ndarray, seed: int) -> np.ndarray:
+    """``walkers`` `W x D` with each straggler replaced by a good walker, jittered by 1e-3 of
+    the good walkers' spread (the same array when there is none)."""
+    lp = np.asarray(log_joint(walkers), dtype=np.float64)
+    finite = np.isfinite(lp)
+    if not finite.any():
+        return walkers
+    bad = ~finite | (lp < lp[finite].max() - straggler_gap(walkers.shape[1]))
+    good = np.flatnonzero(~bad)
+    if not bad.any():
+        return walkers
+    rng = np.random.default_rng([seed, 31])
+    spread = (walkers[good] if good.size > 1 else walkers).std(axis=0) + 1e-12
+    out = walkers.copy()
+    out[bad] = walkers[rng.choice(good, int(bad.sum()))] + 1e-3 * spread * rng.standard_normal(
+        (int(bad.sum()), walkers.shape[1]))
+    return out
 
 
 def walkers_from(samples: np.ndarray, n_walkers: int, rng: np.random.Generator) -> np.ndarray:
