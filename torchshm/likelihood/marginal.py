@@ -150,9 +150,11 @@ class Eq21:
             return torch.where(singular, -torch.inf, -0.5 * terms.sum((-1, -2)))
         if self.method == "state_space":
             order = self._order()
-            return statespace.log_density(
-                resid[..., order], noise[..., order], self.x[order], self.kern, self.sigma_a, self.length
-            )
+            if bool((order[1:] < order[:-1]).any()):  # unsorted positions: gather (sorted: as they are)
+                resid, noise, x = resid[..., order], noise[..., order], self.x[order]
+            else:
+                x = self.x
+            return statespace.log_density(resid, noise, x, self.kern, self.sigma_a, self.length)
         if self.sigma_m == 0.0:
             noise = noise[:, :1]  # identical for every load case: one factorisation
         chol, failed = cholesky_with_jitter(covariance(self.x, self.kern, self.sigma_a, self.length, noise))
