@@ -19,7 +19,7 @@ from torchshm.inference import Posterior
 from torchshm.inference.adaptive.acquisition import choose_batch
 from torchshm.inference.adaptive.field import FieldEmulator
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, noise_levels
-from torchshm.inference.adaptive.sampling import total_variation
+from torchshm.inference.adaptive.sampling import regroup, straggler_gap, total_variation
 
 SMALL = {"n_walkers": 16, "n_steps": 100, "final_steps": 300, "n_evidence": 2000}
 
@@ -126,6 +126,19 @@ def test_emulated_log_joint_is_exact_where_the_emulator_is_exact() -> None:
     at = np.array([[1.3, -0.7], [0.2, 0.4]])
     np.testing.assert_allclose(log_joint(at), problem.log_joint(at), atol=0.05)
     assert total_variation(log_joint(at), log_joint(at)) == 0.0
+
+
+def test_stranded_walkers_are_moved_onto_good_ones() -> None:
+    def log_density(x: np.ndarray) -> np.ndarray:
+        return -0.5 * np.square(x).sum(-1)
+
+    assert straggler_gap(2) == pytest.approx(np.log(1e6))  # chi2 with 2 dof: -2 log(tail)
+    walkers = np.random.default_rng(0).standard_normal((8, 2))
+    walkers[3] = [40.0, 0.0]  # 800 nats below the others
+    moved = regroup(log_density, walkers, seed=0)
+    assert np.all(np.abs(moved[3]) < 4) and not np.any(np.all(moved[3] == walkers, axis=1))
+    np.testing.assert_array_equal(np.delete(moved, 3, 0), np.delete(walkers, 3, 0))
+    assert regroup(log_density, moved, seed=0) is moved  # none stranded: left as they are
 
 
 def test_bad_options_are_named() -> None:
