@@ -13,7 +13,7 @@ from scipy import stats
 
 import torchshm
 from torchshm.kernels import get_kernel
-from torchshm.likelihood import marginal
+from torchshm.likelihood import marginal, statespace
 from torchshm.likelihood.marginal import Eq21, choose_method
 
 MARKOV = ["exponential", "matern32", "matern52"]
@@ -125,8 +125,6 @@ def test_state_space_draws_have_the_eq21_covariance(kernel: str) -> None:
 
 def test_draws_in_blocks_have_the_eq21_covariance(monkeypatch: pytest.MonkeyPatch) -> None:
     """Blocks of two positions (four blocks, one padded position): the same covariance."""
-    from torchshm.likelihood import statespace
-
     monkeypatch.setattr(statespace, "draw_block_size", lambda n, columns: 2)
     x = torch.tensor([0.0, 0.3, 0.3, 0.9, 1.4, 2.6, 3.0], dtype=torch.float64)
     n = 40_000
@@ -160,9 +158,9 @@ def test_cuda_matches_cpu() -> None:
 
 
 @pytest.mark.parametrize("kernel", MARKOV)
-@pytest.mark.parametrize("n", [1, 2, 7, 64])
+@pytest.mark.parametrize("n", [1, 2, 7, 64, 101])
 def test_few_points_and_whole_blocks(kernel: str, n: int) -> None:
-    """Sizes around the block layout: one point, one short block, exact multiples (64 = 8 x 8)."""
+    """Sizes around the block layout: one point, whole blocks (64), a padded first block (101)."""
     rng = np.random.default_rng(n)
     x = np.sort(rng.uniform(0.0, 5.0, n))
     eta = 20.0 * np.cos(x[None, :] + rng.uniform(0, 6, (2, 1)))
@@ -170,3 +168,6 @@ def test_few_points_and_whole_blocks(kernel: str, n: int) -> None:
     args = (y, eta, x, kernel, 1.3, 0.7, 0.05, 0.2)
     fast = torchshm.log_likelihood(*args, method="state_space")
     assert float(fast) == pytest.approx(scipy_log_likelihood(*args), rel=1e-10)
+    if n == 101:
+        size = statespace.block_size(n, get_kernel(kernel).state_dim)
+        assert n % size != 0  # the padded path is the one tested

@@ -58,17 +58,24 @@ def _model(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor) -> tuple[Te
 
 
 def block_size(n: int, p: int) -> int:
-    """Positions per block for `n` positions and state dimension `p`."""
-    return max(1, math.isqrt(int(n * BLOCK_FACTOR.get(p, 1.2))))
+    """Positions per block for `n` positions and state dimension `p`: about
+    ``sqrt(n * BLOCK_FACTOR[p])``, within 5 % of it the size that pads least (no padding
+    when a whole number of blocks fits, so the data need no padded copy)."""
+    target = max(1, math.isqrt(int(n * BLOCK_FACTOR.get(p, 1.2))))
+    sizes = range(max(1, (19 * target) // 20), min(n, (21 * target) // 20) + 1)
+    return min(sizes, key=lambda size: (-n % size, abs(size - target)), default=target)
 
 
 def _layout(t: Tensor, size: int, blocks: int, fill: float) -> Tensor:
-    """`... x n` -> `size x ... x blocks` (position in block first; a strided view of a padded
-    copy), padded with `fill` at the front of the first block to ``size * blocks`` positions."""
+    """`... x n` -> `size x ... x blocks` (position in block first; a strided view, of a padded
+    copy when needed), padded with `fill` at the front of the first block to ``size * blocks``
+    positions."""
     *lead, n = t.shape
-    out = t.new_empty(*lead, size * blocks)
-    out[..., : size * blocks - n] = fill
-    out[..., size * blocks - n :] = t
+    out = t
+    if size * blocks > n:
+        out = t.new_empty(*lead, size * blocks)
+        out[..., : size * blocks - n] = fill
+        out[..., size * blocks - n :] = t
     return out.unflatten(-1, (blocks, size)).movedim(-1, 0)
 
 
