@@ -13,7 +13,7 @@ from inference_models import LinearModel, linear_gaussian_problem
 from torchshm import identify
 from torchshm.inference import mcmc
 from torchshm.inference.start import vbmc_budget
-from torchshm.inference.target import PROBE_FAILURES, LogJointTarget, ModelRunsFailed
+from torchshm.inference.target import LogJointTarget, ModelRunsFailed
 
 
 class _NaN(LinearModel):
@@ -52,15 +52,23 @@ def test_every_run_failed_is_one_line_quoting_the_error(model, fragment: str, st
         identify(problem, "vbmc", max_fun_evals=20, display="off")
     message = str(info.value)
     assert "\n" not in message and fragment in message and "see the evaluation store" not in message
-    # the start design's points go one at a time until one succeeds: 3 runs, not the design's 10
-    assert problem.n_model_evaluations == PROBE_FAILURES
+    if model is _WrongShape:  # a failure that does not depend on θ: one run, not the design's 10
+        assert problem.n_model_evaluations == 1
+    else:  # the start design (10 points), each point again alone when the batch failed
+        assert problem.n_model_evaluations <= 20
 
 
 def test_emcee_with_every_run_failed_stops_at_the_first_step() -> None:
     problem = linear_gaussian_problem(model=_Raises())
     with pytest.raises(ModelRunsFailed, match="solver diverged"):
         identify(problem, "emcee", n_walkers=8, n_steps=50)
-    assert problem.n_model_evaluations == PROBE_FAILURES  # not the 8 walkers
+
+
+def test_emcee_with_a_wrong_output_shape_stops_after_one_run() -> None:
+    problem = linear_gaussian_problem(model=_WrongShape())
+    with pytest.raises(ModelRunsFailed, match=r"shape \(2, 5\) per parameter vector"):
+        identify(problem, "emcee", n_walkers=8, n_steps=50)
+    assert problem.n_model_evaluations == 1  # not the 8 walkers
 
 
 def test_a_first_failure_does_not_stop_a_batch_that_then_succeeds() -> None:
@@ -76,7 +84,7 @@ def test_a_first_failure_does_not_stop_a_batch_that_then_succeeds() -> None:
     target = LogJointTarget(linear_gaussian_problem(model=FailsOnce()))
     values = target.evaluate(np.array([[1.0, 2.0], [0.5, 0.5], [0.2, 0.1], [0.3, 0.3]]))
     assert values[0] == -np.inf and np.isfinite(values[1:]).all()
-    assert target.n_failed == 1 and FailsOnce.calls == 3  # alone, alone, then the last two at once
+    assert target.n_failed == 1 and FailsOnce.calls == 2  # the first alone, then the other three at once
 
 
 def test_some_failures_warn_with_the_first_error() -> None:

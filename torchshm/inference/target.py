@@ -116,8 +116,8 @@ def point_log_for(problem: Problem) -> PointLog | None:
     return PointLog(path.with_name(path.name + ".points.jsonl"), list(problem.names), model)
 
 
-#: failed model runs, with none succeeded, after which an inference stops
-PROBE_FAILURES = 3
+#: model errors that do not depend on the parameters: the first such failure stops an inference
+STRUCTURAL_ERRORS = ("model output has shape", "model output has dtype")
 
 
 class ModelRunsFailed(RuntimeError):
@@ -148,37 +148,29 @@ class LogJointTarget:
     n_failed: int = 0
     first_error: str | None = None
 
-    def evaluate(self, theta: np.ndarray) -> np.ndarray:
+    def evaluate(self, theta: np.ndarray, probe: bool = True) -> np.ndarray:
         """Log joint of a batch ``theta`` (`N x D`) -> `N`, with failures handled as above.
 
-        Until one evaluation has succeeded, the points of a batch are evaluated one at a time,
-        so that a model that fails everywhere (a wrong output shape, a missing executable) stops
-        the inference after :data:`PROBE_FAILURES` runs instead of a whole batch of them.
+        Until one evaluation has succeeded, the first point of a batch is evaluated alone: if
+        its run fails in a way that does not depend on the parameters (a wrong output shape or
+        dtype: :data:`STRUCTURAL_ERRORS`), the inference stops after that one run instead of a
+        whole batch of them; otherwise the rest of the batch follows as before.
         """
         theta = np.atleast_2d(np.asarray(theta, dtype=np.float64))
-        if theta.shape[0] > 1 and not np.isfinite(np.asarray(self.y, dtype=np.float64)).any():
-            return self._probe(theta)
+        if probe and theta.shape[0] > 1 and not np.isfinite(np.asarray(self.y, dtype=np.float64)).any():
+            try:
+                first = self.evaluate(theta[:1], probe=False)
+            except ModelRunsFailed:
+                if any(text in self.error_text() for text in STRUCTURAL_ERRORS):
+                    raise
+                first = np.full(1, -np.inf)
+            return np.concatenate([first, self.evaluate(theta[1:], probe=False)])
         if self.point_log is not None:
             self.point_log.append(theta)
         raw = self._log_joint(theta)
         self.X.extend(theta)
         self.y.extend(raw.tolist())
         return self._clean(theta, raw)
-
-    def _probe(self, theta: np.ndarray) -> np.ndarray:
-        """Evaluate ``theta`` (`N x D`) one point at a time until one succeeds, then the rest
-        as a batch; re-raise :class:`ModelRunsFailed` once :data:`PROBE_FAILURES` have failed."""
-        out = []
-        for i in range(theta.shape[0]):
-            if out and np.isfinite(np.asarray(self.y, dtype=np.float64)).any():
-                return np.concatenate(out + [self.evaluate(theta[i:])])
-            try:
-                out.append(self.evaluate(theta[i : i + 1]))
-            except ModelRunsFailed:
-                if self.n_failed >= PROBE_FAILURES or i == theta.shape[0] - 1:
-                    raise
-                out.append(np.full(1, -np.inf))
-        return np.concatenate(out)
 
     def _log_joint(self, theta: np.ndarray) -> np.ndarray:
         """``problem.log_joint`` of `N x D` points; a point whose evaluation raises gives NaN."""
