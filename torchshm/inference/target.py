@@ -116,10 +116,6 @@ def point_log_for(problem: Problem) -> PointLog | None:
     return PointLog(path.with_name(path.name + ".points.jsonl"), list(problem.names), model)
 
 
-#: model errors that do not depend on the parameters: the first such failure stops an inference
-STRUCTURAL_ERRORS = ("model output has shape", "model output has dtype")
-
-
 class ModelRunsFailed(RuntimeError):
     """No evaluation so far gave a finite log joint and model runs failed: the inference cannot
     go on. The message is one line quoting the first model error (e.g. a wrong output shape)."""
@@ -148,23 +144,9 @@ class LogJointTarget:
     n_failed: int = 0
     first_error: str | None = None
 
-    def evaluate(self, theta: np.ndarray, probe: bool = True) -> np.ndarray:
-        """Log joint of a batch ``theta`` (`N x D`) -> `N`, with failures handled as above.
-
-        Until one evaluation has succeeded, the first point of a batch is evaluated alone: if
-        its run fails in a way that does not depend on the parameters (a wrong output shape or
-        dtype: :data:`STRUCTURAL_ERRORS`), the inference stops after that one run instead of a
-        whole batch of them; otherwise the rest of the batch follows as before.
-        """
+    def evaluate(self, theta: np.ndarray) -> np.ndarray:
+        """Log joint of a batch ``theta`` (`N x D`) -> `N`, with failures handled as above."""
         theta = np.atleast_2d(np.asarray(theta, dtype=np.float64))
-        if probe and theta.shape[0] > 1 and not np.isfinite(np.asarray(self.y, dtype=np.float64)).any():
-            try:
-                first = self.evaluate(theta[:1], probe=False)
-            except ModelRunsFailed:
-                if any(text in self.error_text() for text in STRUCTURAL_ERRORS):
-                    raise
-                first = np.full(1, -np.inf)
-            return np.concatenate([first, self.evaluate(theta[1:], probe=False)])
         if self.point_log is not None:
             self.point_log.append(theta)
         raw = self._log_joint(theta)
