@@ -73,6 +73,14 @@ class Posterior:
     n_chains: int = 1
     problem: Problem | None = field(default=None, repr=False, compare=False)
 
+    def __post_init__(self) -> None:
+        n = int(np.shape(self.samples)[0]) if np.ndim(self.samples) else 0
+        if isinstance(self.n_chains, bool) or int(self.n_chains) < 1 or n % int(self.n_chains):
+            raise ValueError(
+                f"Posterior: n_chains={self.n_chains!r} must be a positive integer that divides the "
+                f"{n} samples (they are stored step-major, chain after chain within each step)"
+            )
+
     @property
     def prior(self) -> JointPrior:
         """The joint prior of :attr:`names` (the problem's when attached, else from :attr:`priors`)."""
