@@ -21,12 +21,19 @@ HERE = Path(__file__).parent
 DELAY = 0.15
 
 
+def _default_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _interrupt(tmp_path: Path, signum: int) -> tuple[subprocess.CompletedProcess, EvaluationStore, Path]:
     store, counter = EvaluationStore(tmp_path / "store.sqlite"), tmp_path / "calls.txt"
     command = [sys.executable, str(HERE / "grid_run.py"), str(store.path), str(counter),
                str(DELAY), "5", "4", "0", "20"]
     env = dict(os.environ, OMP_NUM_THREADS="1")
-    process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    # a shell's background job inherits SIGINT ignored (and Python then installs no Ctrl-C
+    # handler): give the child the default disposition, as an interactive terminal would
+    process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               preexec_fn=_default_sigint)
     deadline = time.monotonic() + 120.0
     while store.count() < 4 and process.poll() is None and time.monotonic() < deadline:
         time.sleep(0.01)
