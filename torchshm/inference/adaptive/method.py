@@ -49,8 +49,8 @@ logger = logging.getLogger(__name__)
 def run_emulator(
     problem: Problem, seed: int = 0, *, log_dir: str | Path | None = None, batch_size: int = 5,
     max_model_evaluations: int | None = None, n_jobs: int = 1, executor: Any | None = None,
-    n_initial: int | None = None, n_walkers: int | None = None, n_steps: int = 300,
-    final_steps: int = 300, tv_tol: float = 0.05, patience: int = 2, sd_tol: float = 0.3,
+    n_initial: int | None = None, n_walkers: int | None = None, n_steps: int = 100,
+    final_steps: int = 200, tv_tol: float = 0.05, patience: int = 2, sd_tol: float = 0.3,
     check_tol: float = 1.0, n_evidence: int = 8000, emulator_kernel: str = "matern52",
 ) -> Posterior:
     """Identify ``problem`` with the adaptive field emulator (see :func:`torchshm.identify`).
@@ -68,8 +68,10 @@ def run_emulator(
         executor: a submitit executor (:func:`torchshm.storage.make_executor`; needs a store).
         n_initial: size of the initial design (None: the smallest multiple of ``batch_size``
             of at least ``2 P + 1``).
-        n_walkers: emcee walkers (None: ``max(24, 4 D)``).
-        n_steps: emcee steps per round (the second half is kept; twice as many in round 0).
+        n_walkers: emcee walkers (None: ``max(48, 8 D)``: a likelihood call costs about the
+            same for 10 or 50 walkers, so many walkers and few steps are cheaper than the reverse).
+        n_steps: emcee steps per round (the second half is kept; three times as many in round
+            0, whose walkers start from the prior).
         final_steps: emcee steps on the last emulator, to fit the posterior's mixture density.
         tv_tol, patience: stop once the total variation to the previous round's posterior is
             below ``tv_tol`` in ``patience`` successive rounds...
@@ -95,7 +97,7 @@ def run_emulator(
     if max_model_evaluations is None:
         max_model_evaluations = max(50 * (dim + 2), n_initial + 2 * batch_size)
     budget = _positive("max_model_evaluations", max_model_evaluations, minimum=0)
-    n_walkers = int(n_walkers or max(24, 4 * dim))
+    n_walkers = int(n_walkers or max(48, 8 * dim))
     transform = model_transform(problem.model)
     rng = np.random.default_rng([seed, 29])
     runs = RunSet.from_problem(problem)
@@ -129,7 +131,7 @@ def run_emulator(
             emulator = FieldEmulator.fit(runs.theta_p, runs.outputs, x_index, loads, transform,
                                          emulator_kernel, previous=emulator)
             log_joint = EmulatedLogJoint(problem, emulator, inflation)
-            steps = n_steps if r > 0 else 2 * n_steps
+            steps = n_steps if r > 0 else 3 * n_steps
             samples, walkers = sampling.run_chain(log_joint, walkers, steps, seed + 1000 * r)
             pick = rng.choice(samples.shape[0], min(600, samples.shape[0]), False)
             draws = samples[pick]
