@@ -14,7 +14,8 @@ import torch
 from torchshm.arrays import as_float64
 from torchshm.forward.protocol import ForwardModel, model_identity
 from torchshm.storage import EvaluationStore, evaluate
-from torchshm.surrogate.surrogate import Surrogate, build_gp
+from torchshm.surrogate.field import fit_field
+from torchshm.surrogate.surrogate import Surrogate
 from torchshm.surrogate.transforms import ResponseTransform, transform_of
 
 #: a transform keyword left to the model (its ``surrogate_transform``, else plain scaling)
@@ -42,7 +43,8 @@ def fit_surrogate(
     The design is evaluated through :func:`torchshm.storage.evaluate` (through ``store`` when
     given, so an interrupted fit resumes without repeating a finished run). Failed runs are
     left out with a warning naming them. All `L x n` outputs share one kernel, fitted by the
-    exact marginal likelihood (see :mod:`torchshm.surrogate.gp`).
+    exact marginal likelihood (see :mod:`torchshm.surrogate.gp`) through the library's one fit
+    recipe, :func:`torchshm.surrogate.field.fit_field`.
 
     The transform keywords left at ``"model"`` come from the model's ``surrogate_transform``
     attribute (bridge 705 declares its elastic structure there), or are plain scaling
@@ -79,8 +81,9 @@ def fit_surrogate(
     options = {**transform_of(model), **{k: v for k, v in given.items() if v != "model"}}
     transform = ResponseTransform.fit(
         theta, outputs.reshape(outputs.shape[0], -1), standardize=standardize, **options)
-    gp = build_gp(transform, theta, outputs, kernel, min_noise)
-    log_ml = gp.fit(lengthscales=lengthscales, max_iter=max_iter)
+    fit = fit_field(theta, outputs, transform=transform, kernel=kernel, min_noise=min_noise,
+                    lengthscales=lengthscales, max_iter=max_iter, what="fit_surrogate")
+    gp, log_ml = fit.gp, fit.log_marginal_likelihood
     metadata = {
         "log_marginal_likelihood": log_ml, "standardize": standardize,
         "fit_seconds": time.perf_counter() - start,

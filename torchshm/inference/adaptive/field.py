@@ -15,17 +15,15 @@ scaled to the unit box and outputs standardised, which suits any model.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import torch
-from linear_operator.utils.warnings import NumericalWarning
 from torch import Tensor
 
 from torchshm.surrogate import ResponseTransform, Surrogate
-from torchshm.surrogate.surrogate import build_gp
+from torchshm.surrogate.field import fit_field
 
 #: transform keywords for a model that declares no structure
 PLAIN_TRANSFORM: dict[str, Any] = {"log_inputs": (), "modulus": None, "relative_to_modulus": ()}
@@ -63,29 +61,18 @@ class FieldEmulator:
             previous: FieldEmulator | None = None) -> FieldEmulator:
         """Fit to runs ``theta_p`` `N x P` with measured strains ``outputs`` `N x L x n` [µε].
 
-        Rows with a non-finite output are left out (failed runs). With ``previous`` (the last
-        round's emulator) the marginal likelihood is maximised from its hyperparameters and
-        from one fresh start, instead of three fresh starts. Raises ``ValueError`` with fewer
-        than ``P + 2`` usable runs.
+        The library's one GP fit (:func:`~torchshm.surrogate.field.fit_field`: failed and
+        repeated runs left out, output compression). With ``previous`` (the last round's
+        emulator) the marginal likelihood is maximised from its hyperparameters and from one
+        fresh start, instead of three fresh starts. Raises ``ValueError`` with fewer than
+        ``P + 2`` usable runs.
         """
-        theta = torch.as_tensor(np.asarray(theta_p), dtype=torch.float64)
-        out = torch.as_tensor(np.asarray(outputs), dtype=torch.float64)
-        keep = torch.isfinite(out.reshape(out.shape[0], -1)).all(-1)
-        theta, out = theta[keep], out[keep]
-        if theta.shape[0] < theta.shape[1] + 2:
-            raise ValueError(f"emulator: {theta.shape[0]} successful runs; at least "
-                             f"{theta.shape[1] + 2} are needed to fit the field emulator")
-        options = dict(PLAIN_TRANSFORM if transform is None else transform)
-        scaling = ResponseTransform.fit(theta, out.reshape(theta.shape[0], -1),
-                                        standardize="output", **options)
-        gp = build_gp(scaling, theta, out, kernel, 1e-10)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", NumericalWarning)  # jitter on near noise-free data
-            if previous is None:
-                log_ml = gp.fit(lengthscales=(0.2, 0.5, 1.0), max_iter=200)
-            else:
-                log_ml = gp.fit(lengthscales=(0.5,), max_iter=100,
-                                warm=previous.surrogate.gp.hyperparameters())
+        warm = None if previous is None else previous.surrogate.gp.hyperparameters()
+        fit = fit_field(theta_p, outputs, transform=dict(PLAIN_TRANSFORM if transform is None else transform),
+                        kernel=kernel, lengthscales=(0.2, 0.5, 1.0) if warm is None else (0.5,),
+                        max_iter=200 if warm is None else 100, warm=warm, what="emulator")
+        theta, out, gp, scaling, log_ml = (fit.theta_p, fit.outputs, fit.gp, fit.transform,
+                                           fit.log_marginal_likelihood)
         names = tuple(f"theta_p[{i}]" for i in range(theta.shape[1]))
         sur = Surrogate(gp, scaling, x, loads, names, "adaptive-field-emulator", theta, out,
                         {"log_marginal_likelihood": log_ml})

@@ -199,6 +199,8 @@ def _posterior(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarra
         "evidence_ess": ess, "n_walkers": extra["n_walkers"],
         "wall_time_s": time.perf_counter() - extra["t0"],
     }
+    logger.info("emulator: %d runs from the store, %d new, %d rounds, %s", extra["n_reused_runs"],
+                runs.n_new, len(rounds), "converged" if converged else "NOT converged")
     vp.rng = np.random.default_rng([seed, 13])
     return Posterior(
         names=list(problem.names), method="emulator", samples=samples, log_evidence=log_z,
