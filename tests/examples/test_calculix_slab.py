@@ -40,6 +40,24 @@ def test_truth_json_matches_the_campaign_file() -> None:
     assert "# sigma_e=2.0" in head and truth["sigma_m"] == 0.02
 
 
+def test_config_builds_the_python_model(monkeypatch: pytest.MonkeyPatch) -> None:
+    """conf/model/calculix_slab.yaml and slab.calculix_slab() are one model for the store."""
+    import sys
+
+    import yaml
+
+    from torchshm.cli.models import instantiate_model
+
+    sys.path.insert(0, str(REPO))
+    from examples.calculix_slab.slab import calculix_slab
+
+    monkeypatch.chdir(REPO)  # the config's paths are relative to where the command runs
+    spec = yaml.safe_load((EXAMPLE / "conf" / "model" / "calculix_slab.yaml").read_text())
+    built = instantiate_model(spec, REPO)
+    assert built.identity == calculix_slab().identity and built.keep == "failed"
+    assert built.x.shape == (201,) and built.loads.tolist() == [4.0, 8.0, 12.0, 16.0]
+
+
 @pytest.mark.slow
 def test_readme_command_runs_calculix_and_keeps_no_successful_folder(tmp_path: Path) -> None:
     assert shutil.which("ccx"), "CalculiX is not installed: bash scripts/install.sh (as root) or apt-get install calculix-ccx"

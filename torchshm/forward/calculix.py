@@ -101,6 +101,10 @@ class CalculixStrain:
     scale: float = 1e6
     blocks: Sequence[str] = STRAIN_BLOCKS
 
+    def __post_init__(self) -> None:  # lists from a config equal tuples from Python (same repr, same identity)
+        object.__setattr__(self, "line", tuple(float(v) for v in self.line))
+        object.__setattr__(self, "blocks", tuple(str(b) for b in self.blocks))
+
     def __call__(self, folder: Path, x: np.ndarray, loads: np.ndarray) -> np.ndarray:
         nodes, blocks = read_frd(Path(folder) / self.file)
         ids, along = self._fibre(nodes)

@@ -142,6 +142,8 @@ class TemplateModel(ExternalModel):
 
 def _describe(obj: object) -> str:
     """A description of a callable that is the same in every process (no memory address)."""
+    if isinstance(obj, functools.partial) and not obj.args and not obj.keywords:
+        return _describe(obj.func)  # Hydra's _partial_: true without arguments is the function
     if isinstance(obj, functools.partial):
         return f"partial({_describe(obj.func)}, {obj.args!r}, {sorted(obj.keywords.items())!r})"
     if hasattr(obj, "__qualname__"):
