@@ -70,14 +70,11 @@ class RunFolders:
         tag = hashlib.sha256(np.ascontiguousarray(theta, dtype=np.float64).tobytes()).hexdigest()[:8]
         label = " ".join(f"{name}={float(value)!r}" for name, value in zip(names, theta))
         with self._locked() as rows:
-            number = max((int(row["run"]) for row in rows), default=0) + 1
-            while True:
-                folder = self.root / f"run-{number:04d}-{tag}"
-                try:
-                    folder.mkdir()
-                    break
-                except FileExistsError:  # a folder left by a deleted index: skip its number
-                    number += 1
+            numbers = [int(row["run"]) for row in rows]
+            numbers += [int(p.name.split("-")[1]) for p in self.root.glob("run-*-*") if p.name.split("-")[1].isdigit()]
+            number = max(numbers, default=0) + 1  # also past folders left by a deleted index
+            folder = self.root / f"run-{number:04d}-{tag}"
+            folder.mkdir()
             rows.append({"run": str(number), "status": "running", "kept": "yes", "bytes": "",
                          "seconds": "", "folder": folder.name, "theta_p": label, "error": ""})
         return folder
