@@ -21,7 +21,7 @@ if ! command -v ccx >/dev/null 2>&1; then
     if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
         echo "installing CalculiX (apt-get install calculix-ccx) for examples/calculix_slab"
         { apt-get update -qq && DEBIAN_FRONTEND=noninteractive \
-            apt-get install -y -qq --no-install-recommends calculix-ccx; } >/dev/null \
+            apt-get install -y -qq --no-install-recommends calculix-ccx; } >/dev/null 2>&1 \
             || echo "apt-get could not install calculix-ccx: the CalculiX example's tests will fail"
     else
         echo "CalculiX (ccx) is not installed and cannot be here (not root or no apt-get):" \
