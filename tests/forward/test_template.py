@@ -92,6 +92,8 @@ def test_inputs_refused_before_any_run(tmp_path: Path) -> None:
         TemplateModel(tmp_path / "nosuch.inp", command, read_result, X, LOADS, ["E", "k"])
     with pytest.raises(ValueError, match="files: .*mesh.inp does not exist"):
         TemplateModel(template, command, read_result, X, LOADS, ["E", "k"], files=[tmp_path / "mesh.inp"])
+    with pytest.raises(ValueError, match="deck_name must be a file name"):
+        TemplateModel(template, command, read_result, X, LOADS, ["E", "k"], deck_name="../deck.inp")
     with pytest.raises(ValueError, match="style must be one of format, template"):
         TemplateModel(template, command, read_result, X, LOADS, ["E", "k"], style="jinja")
     assert placeholders("a {E:.3f} {k[0]} {{x}} {E}") == ["E", "k"]

@@ -56,8 +56,9 @@ class TemplateModel(ExternalModel):
             ``identity``, ``keep``, ``kill_grace``, ``max_output_bytes``).
 
     Raises:
-        ValueError: before any run, on a missing template or file, an unknown style, or (with
-            ``values`` None) a placeholder that is not in ``names``.
+        ValueError: before any run, on a missing template or file, a ``deck_name`` that is not a
+            plain file name, an unknown style, or (with ``values`` None) a placeholder that is
+            not in ``names``.
     """
 
     def __init__(
@@ -87,9 +88,12 @@ class TemplateModel(ExternalModel):
             raise ValueError(f"style must be one of {', '.join(STYLES)}, got {style!r}")
         self.deck_text, self.style, self.reader, self.values = path.read_text(), style, reader, values
         self.deck_name = deck_name or (path.stem if path.suffix in (".template", ".tmpl") else path.name)
+        if Path(self.deck_name).name != self.deck_name or self.deck_name in (".", ".."):
+            raise ValueError(f"deck_name must be a file name (it is written into the run folder), got {deck_name!r}")
         self.files = [Path(f).expanduser().resolve() for f in files]
-        for file in [f for f in self.files if not f.is_file()][:1]:
-            raise ValueError(f"files: {file} does not exist")
+        missing = [f for f in self.files if not f.is_file()]
+        if missing:
+            raise ValueError(f"files: {missing[0]} does not exist")
         if values is None:
             unknown = sorted(set(placeholders(self.deck_text, style)) - set(names))
             if unknown:
