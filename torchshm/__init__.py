@@ -30,6 +30,8 @@ _EXPORTS: dict[str, str] = {
     "load_surrogate": "torchshm.surrogate",
     "bridge705_surrogate": "torchshm.physics.surrogate",
     "ExternalModel": "torchshm.forward",
+    "TemplateModel": "torchshm.forward",
+    "CalculixStrain": "torchshm.forward",
     "EvaluationStore": "torchshm.storage",
     "EvaluationResult": "torchshm.storage",
     "evaluate": "torchshm.storage",

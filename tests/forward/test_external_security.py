@@ -38,11 +38,11 @@ GOOD = "np.savez('strains.npz', strain=np.full((len(p['loads']), len(p['x'])), s
 def test_hostile_names_and_workdir_never_reach_a_shell(tmp_path: Path) -> None:
     workdir = tmp_path / HOSTILE.replace("/", "_")
     model = ExternalModel([sys.executable, _script(tmp_path, GOOD)], X, LOADS, workdir=workdir,
-                          names=[HOSTILE, "b"])
+                          names=[HOSTILE, "b"], keep="all")
     out = model(torch.tensor([1.0, 2.0], dtype=torch.float64))
     assert torch.all(out == 3.0)
     assert not list(tmp_path.rglob("PWNED")) and not Path("PWNED").exists()
-    [folder] = list(workdir.iterdir())
+    [folder] = list(workdir.glob("run-*"))
     assert json.loads((folder / "params.json").read_text())["names"] == [HOSTILE, "b"]
 
 
@@ -55,9 +55,10 @@ def test_shell_command_gets_paths_through_the_environment_only(tmp_path: Path) -
 
 def test_each_run_works_in_its_own_folder(tmp_path: Path) -> None:
     body = "open('mark.txt', 'w').write(os.getcwd())\n" + GOOD
-    model = ExternalModel([sys.executable, _script(tmp_path, body)], X, LOADS, workdir=tmp_path / "runs")
+    model = ExternalModel([sys.executable, _script(tmp_path, body)], X, LOADS, workdir=tmp_path / "runs",
+                          keep="all")
     model(torch.tensor([[1.0, 1.0], [2.0, 2.0]], dtype=torch.float64))
-    folders = sorted((tmp_path / "runs").iterdir())
+    folders = sorted((tmp_path / "runs").glob("run-*"))
     assert len(folders) == 2
     for folder in folders:
         assert (folder / "mark.txt").read_text() == str(folder)
@@ -78,7 +79,7 @@ def test_a_run_writing_gigabytes_is_stopped_at_the_limit(tmp_path: Path) -> None
                           workdir=tmp_path / "runs", max_output_bytes=1 << 20)
     with pytest.raises(ExternalModelError, match=r"over max_output_bytes=1048576"):
         model.run(np.array([1.0, 1.0]))
-    [folder] = list((tmp_path / "runs").iterdir())
+    [folder] = list((tmp_path / "runs").glob("run-*"))
     assert (folder / "huge.bin").stat().st_size <= 1 << 20
 
 

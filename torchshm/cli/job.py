@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from torchshm.config import Config, DataConfig, build_priors, method_options, parameter_labels
 from torchshm.cli import outputs
-from torchshm.cli.models import instantiate_model, with_executor
+from torchshm.cli.models import instantiate_model, runs_report, with_executor
 from torchshm.forward.parallel import ParallelModel
 
 if TYPE_CHECKING:
@@ -190,6 +190,9 @@ def run_job(job: PreparedJob, out_dir: Path) -> JobResult:
         problem, method=settings.method.name.value, seed=settings.seed,
         log_dir=out_dir / "tb", **method_options(settings.method),
     )
+    report = runs_report(problem.model)
+    if report is not None:
+        log.info("run folders: %s", report)
     result = JobResult(post, out_dir, 0.0)
     result.files.update(outputs.write_posterior(post, out_dir, job.measurements.attrs, job.labels))
     if job.held_out is not None:

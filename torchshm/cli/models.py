@@ -72,6 +72,19 @@ def with_executor(model: ForwardModel, executor: ExecutorConfig) -> ForwardModel
     return ParallelModel(model, **options)
 
 
+def runs_report(model: object) -> str | None:
+    """The run-folder summary of ``model`` or of the model it wraps (``ParallelModel``, a
+    cached model): runs by status, folders kept, disk used; None for a model without one."""
+    for _ in range(5):
+        summary = getattr(model, "runs_summary", None)
+        if callable(summary):
+            return str(summary())
+        model = getattr(model, "model", None)
+        if model is None:
+            return None
+    return None
+
+
 def _cause(err: BaseException) -> str:
     """The innermost reason of Hydra's instantiation error, in one line."""
     inner = err
@@ -88,4 +101,4 @@ def _first_line(err: BaseException) -> str:
     return lines[0] if lines else type(err).__name__
 
 
-__all__ = ["instantiate_model", "with_executor"]
+__all__ = ["instantiate_model", "runs_report", "with_executor"]

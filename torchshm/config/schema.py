@@ -74,9 +74,11 @@ class ModelConfig:
 
     ``_target_`` is the dotted path of a class or factory (importable from the directory the
     command runs from, or installed), and every other key of the node is a keyword argument,
-    e.g. ``{_target_: torchshm.ExternalModel, command: [...], x: [...], loads: [...]}``. The
-    node is kept as a plain dict (:attr:`Config.model`); this class documents the shipped
-    default only.
+    e.g. ``{_target_: torchshm.ExternalModel, command: [...], x: [...], loads: [...]}``; for
+    ``ExternalModel`` and ``TemplateModel``, ``x`` and ``loads`` may also be a range
+    ``{start: 0.0, stop: 20.0, num: 201}`` or a ``.csv``/``.npy`` file path, and ``keep``
+    (``failed``, ``all``, ``none``) says which run folders stay. The node is kept as a plain
+    dict (:attr:`Config.model`); this class documents the shipped default only.
     """
 
     _target_: str = "torchshm.bridge705_surrogate"

@@ -1,8 +1,10 @@
 """A forward model that runs an external finite element program, once per θp.
 
-Each run gets a fresh work folder holding ``params.json`` (input), ``run.log`` (the program's
-stdout and stderr) and the strain file the program writes (output); the file contract is in
-:mod:`torchshm.forward.files` and ``docs/external_models.md``. A run that exits with a
+Each run gets a fresh work folder ``<workdir>/run-0007-<hash>/`` holding ``params.json``
+(input), ``run.log`` (the program's stdout and stderr) and the strain file the program writes
+(output); the file contract is in :mod:`torchshm.forward.files` and
+``docs/external_models.md``. ``<workdir>/index.csv`` maps each run to its θp, status and
+folder, and by default only failed runs keep their folders (:mod:`torchshm.forward.runs`). A run that exits with a
 non-zero status, exceeds its timeout or writes no valid strains raises
 :class:`ExternalModelError`, which the evaluation store records as a failed evaluation.
 """
@@ -13,7 +15,6 @@ import hashlib
 import json
 import os
 import resource
-import shutil
 import signal
 import subprocess
 import tempfile
@@ -26,8 +27,10 @@ import numpy as np
 import torch
 from torch import Tensor
 
+from torchshm.forward.axes import load_axis
 from torchshm.forward.files import LOG_FILE, PARAMS_FILE, read_strains, write_params
 from torchshm.forward.protocol import as_tensor
+from torchshm.forward.runs import RunFolders
 
 
 #: default largest file a run may write [bytes] (strains of 100 load cases x 100,000 sensors
@@ -47,16 +50,20 @@ class ExternalModel:
             shell). It runs with the work folder as current directory, so give scripts and
             input files by absolute path. ``TORCHSHM_PARAMS``, ``TORCHSHM_OUTPUT`` and
             ``TORCHSHM_WORKDIR`` hold the absolute paths of the run's files and folder.
-        x: sensor positions `n` [m].
-        loads: load cases `L` (front-axle positions [m]).
+        x: sensor positions `n` [m]: values, a range ``{"start", "stop", "num"}`` or a
+            ``.csv``/``.npy`` file (:func:`torchshm.forward.axes.load_axis`).
+        loads: load cases `L` (e.g. front-axle positions [m]), given as ``x`` is.
         timeout: seconds after which a run is killed (its whole process group); None: never.
-        workdir: folder under which each run gets its own sub-folder; None: a
-            ``torchshm-runs`` folder in the system's temporary folder.
+        workdir: folder under which each run gets its own sub-folder ``run-0007-<hash>`` and
+            ``index.csv`` its row; None: a ``torchshm-runs`` folder in the system's temporary
+            folder.
         output: name of the strain file the program writes, ``*.npz`` or ``*.csv``.
         names: parameter names written to ``params.json``; None: ``theta_0, theta_1, ...``.
         identity: key of this model in an evaluation store; None: a hash of the command,
             output name, parameter names, x and loads.
-        keep_workdirs: keep the folders of successful runs (failed ones are always kept).
+        keep: which run folders stay on disk: ``"failed"`` (a successful run's folder is
+            removed once its strains are read), ``"all"`` or ``"none"``.
+        keep_workdirs: older spelling of ``keep``: True is ``"all"``, False ``"failed"``.
         kill_grace: seconds between SIGTERM and SIGKILL when a run times out.
         max_output_bytes: largest file a run may write (its strain file and log included),
             enforced on the program by the operating system (``RLIMIT_FSIZE``: a write past it
@@ -69,9 +76,9 @@ class ExternalModel:
     pickle (``np.load(allow_pickle=False)``, CSV as text).
 
     Raises:
-        ValueError: on an empty command, non-finite or non-1-D ``x``/``loads``, a
-            non-positive timeout or output limit, or an output name that is not
-            ``.npz``/``.csv``.
+        ValueError: on an empty command, non-finite or non-1-D ``x``/``loads`` (or an
+            unreadable file of them), a non-positive timeout or output limit, an output name
+            that is not ``.npz``/``.csv``, or an unknown ``keep``.
     """
 
     def __init__(
@@ -85,12 +92,13 @@ class ExternalModel:
         *,
         names: Sequence[str] | None = None,
         identity: str | None = None,
-        keep_workdirs: bool = True,
+        keep: str = "failed",
+        keep_workdirs: bool | None = None,
         kill_grace: float = 5.0,
         max_output_bytes: int | None = DEFAULT_MAX_OUTPUT_BYTES,
     ) -> None:
         self.command = _check_command(command)
-        self.x, self.loads = _check_axis(x, "x"), _check_axis(loads, "loads")
+        self.x, self.loads = (torch.from_numpy(load_axis(v, k)) for k, v in (("x", x), ("loads", loads)))
         if timeout is not None and not (isinstance(timeout, (int, float)) and timeout > 0):
             raise ValueError(f"timeout must be positive seconds or None, got {timeout!r}")
         if Path(output).suffix not in (".npz", ".csv") or Path(output).name != output:
@@ -99,7 +107,10 @@ class ExternalModel:
         base = Path(tempfile.gettempdir()) / "torchshm-runs" if workdir is None else Path(workdir)
         self.workdir = base.expanduser().resolve()
         self.names = None if names is None else [str(name) for name in names]
-        self.keep_workdirs, self.kill_grace = keep_workdirs, float(kill_grace)
+        if keep_workdirs is not None:
+            keep = "all" if keep_workdirs else "failed"
+        self.folders = RunFolders(self.workdir, keep)
+        self.kill_grace = float(kill_grace)
         if max_output_bytes is not None and (
             isinstance(max_output_bytes, bool) or not isinstance(max_output_bytes, int)
             or max_output_bytes <= 0
@@ -109,7 +120,26 @@ class ExternalModel:
         self.identity = identity if identity is not None else self._default_identity()
 
     def __repr__(self) -> str:
-        return f"ExternalModel({self.command!r}, n={len(self.x)}, L={len(self.loads)})"
+        return f"{type(self).__name__}({self.command!r}, n={len(self.x)}, L={len(self.loads)})"
+
+    @property
+    def keep(self) -> str:
+        """Which run folders stay on disk: ``"failed"``, ``"all"`` or ``"none"``."""
+        return self.folders.keep
+
+    @property
+    def keep_workdirs(self) -> bool:
+        """Whether successful runs keep their folders (``keep == "all"``)."""
+        return self.folders.keep == "all"
+
+    @property
+    def disk_used(self) -> int:
+        """Bytes under ``workdir`` now: the kept run folders and ``index.csv``."""
+        return self.folders.disk_used()
+
+    def runs_summary(self) -> str:
+        """One line from ``index.csv``: runs by status, folders kept and disk used."""
+        return self.folders.summary()
 
     def __call__(self, theta_p: object) -> Tensor:
         """Strains [µε] `... x L x n` for parameters `... x P`, one program run per row."""
@@ -132,16 +162,27 @@ class ExternalModel:
         names = self.names or [f"theta_{i}" for i in range(len(theta))]
         if len(names) != len(theta) or not np.isfinite(theta).all():
             raise ValueError(f"theta_p {theta.tolist()} must be {len(names)} finite values")
-        folder = self._new_folder(theta)
-        write_params(folder / PARAMS_FILE, theta, names, self.x.numpy(), self.loads.numpy())
-        self._execute(folder)
+        folder, start = self.folders.new(theta, names), time.perf_counter()
         try:
-            strain = read_strains(self._output_file(folder), self.x.numpy(), self.loads.numpy())
-        except ValueError as exc:
-            raise ExternalModelError(f"{exc} (work folder {folder})") from None
-        if not self.keep_workdirs:
-            shutil.rmtree(folder, ignore_errors=True)
+            self._prepare(folder, theta, names)
+            self._execute(folder)
+            try:
+                strain = self._read(folder)
+            except ValueError as exc:
+                raise ExternalModelError(f"{exc} (work folder {folder})") from None
+        except BaseException as exc:  # failed or interrupted: the folder is kept unless keep="none"
+            self.folders.finish(folder, False, time.perf_counter() - start, str(exc) or type(exc).__name__)
+            raise
+        self.folders.finish(folder, True, time.perf_counter() - start)
         return strain
+
+    def _prepare(self, folder: Path, theta: np.ndarray, names: list[str]) -> None:
+        """Write the run's input files into ``folder`` (here ``params.json``)."""
+        write_params(folder / PARAMS_FILE, theta, names, self.x.numpy(), self.loads.numpy())
+
+    def _read(self, folder: Path) -> np.ndarray:
+        """Strains [µε] `L x n` the run wrote into ``folder`` (``ValueError`` if unusable)."""
+        return read_strains(self._output_file(folder), self.x.numpy(), self.loads.numpy())
 
     def _hit_size_limit(self, folder: Path) -> bool:
         """Whether a file in the run's folder reached ``max_output_bytes`` (the system refuses
@@ -201,12 +242,6 @@ class ExternalModel:
                 f"last output: {_tail(folder / LOG_FILE)!r}"
             )
 
-    def _new_folder(self, theta: np.ndarray) -> Path:
-        self.workdir.mkdir(parents=True, exist_ok=True)
-        tag = hashlib.sha256(np.ascontiguousarray(theta).tobytes()).hexdigest()[:8]
-        prefix = f"{time.strftime('%Y%m%d-%H%M%S')}-{tag}-"
-        return Path(tempfile.mkdtemp(prefix=prefix, dir=self.workdir))
-
     def _default_identity(self) -> str:
         config = json.dumps({"command": self.command, "output": self.output, "names": self.names})
         digest = hashlib.sha256(config.encode())
@@ -236,13 +271,6 @@ def _check_command(command: str | Sequence[str]) -> str | list[str]:
     if not args or not all(isinstance(arg, str) and arg for arg in args):
         raise ValueError(f"command must be a non-empty list of non-empty strings, got {command!r}")
     return args
-
-
-def _check_axis(values: object, name: str) -> Tensor:
-    tensor = as_tensor(values).detach().cpu().clone()
-    if tensor.ndim != 1 or len(tensor) == 0 or not torch.isfinite(tensor).all():
-        raise ValueError(f"{name} must be a non-empty 1-D array of finite values")
-    return tensor
 
 
 def _kill_group(process: subprocess.Popen, grace: float) -> None:
