@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 import torchshm
+from torchshm.config.schema import EmulatorConfig
 from torchshm.config import (
     CONF_DIR,
     EmceeConfig,
@@ -25,9 +26,9 @@ def options(group: str) -> list[str]:
     return sorted(p.stem for p in (CONF_DIR / group).glob("*.yaml"))
 
 
-def test_defaults_are_the_paper_sub_case_a2(compose_cfg) -> None:
+def test_defaults_are_the_emulator_on_the_paper_sub_case_a2(compose_cfg) -> None:
     s = to_settings(compose_cfg())
-    assert s.method.name is MethodName.vbmc and isinstance(s.method, VBMCConfig)
+    assert s.method.name is MethodName.emulator and isinstance(s.method, EmulatorConfig)
     assert s.kernel.name is KernelName.matern32
     assert s.model == {"_target_": "torchshm.bridge705_surrogate"}
     assert s.executor.kind == "serial" and s.executor.n_jobs == 1

@@ -19,7 +19,7 @@ from torchshm.config import to_settings
         ("executor.n_jobs=many", "Integer"),
         ("priors.E_c.dist=lognormal", "expected one of"),
         ("priors.E_c.a=low", "Float"),
-        ("method.max_fun_evals=many", "Integer"),
+        ("method.max_model_evaluations=many", "Integer"),
     ],
 )
 def test_wrong_type_or_value_is_rejected(compose_cfg, override: str, fragment: str) -> None:

@@ -9,6 +9,7 @@ dataclass, never a ``DictConfig``.
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -129,12 +130,37 @@ def build_problem(settings: Config, model: ForwardModel, measurements: Measureme
         measurements.select(settings.data.loads),
         kernel=settings.kernel.name.value,
         priors=build_priors(settings.priors) if priors is None else priors,
-        sigma_m=settings.likelihood.sigma_m,
-        sigma_e=settings.likelihood.sigma_e,
+        sigma_m=_noise_level(settings.likelihood, "sigma_m"),
+        sigma_e=_noise_level(settings.likelihood, "sigma_e"),
         store=store,
         match=settings.likelihood.match,
         discrepancy=settings.likelihood.discrepancy,
     )
+
+
+def _noise_level(likelihood: Any, name: str) -> object:
+    """``likelihood.<name>``: a number (or None), or the prior its mapping describes (a priors
+    entry: ``{dist: uniform, a: 0, b: 0.2}``), which makes the level inferred.
+
+    Raises:
+        ValueError: ``likelihood.<name>: ...`` for anything else, or a bad prior entry.
+    """
+    from omegaconf import OmegaConf
+
+    from torchshm.config.priors import build_prior
+    from torchshm.config.schema import PriorConfig
+
+    value = getattr(likelihood, name)
+    if value is None or (isinstance(value, (int, float)) and not isinstance(value, bool)):
+        return value
+    if isinstance(value, Mapping) or OmegaConf.is_dict(value):
+        try:
+            entry = OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(PriorConfig), value))
+        except Exception as err:  # an unknown field or a wrong type in the entry
+            raise ValueError(f"likelihood.{name}: not a prior entry ({str(err).splitlines()[0]})") from None
+        return build_prior(f"likelihood.{name}", entry)
+    raise ValueError(f"likelihood.{name} must be a number or a prior such as "
+                     f"{{dist:uniform,a:0,b:0.2}}, got {value!r}")
 
 
 @dataclass

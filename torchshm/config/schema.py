@@ -193,10 +193,11 @@ class PredictConfig:
 
 @dataclass
 class LikelihoodConfig:
-    """Fixed parameters of Eq. (21)."""
+    """The noise levels of Eq. (21) (fixed, or inferred when given a prior) and the data view."""
 
-    sigma_m: float = 0.05  # multiplicative model error (relative)
-    sigma_e: Optional[float] = None  # measurement noise [µε]; None = the file's value
+    # a number, or a prior ({dist: uniform, a: 0, b: 0.2}, as a priors entry): then inferred
+    sigma_m: Any = 0.05  # multiplicative model error (relative)
+    sigma_e: Any = None  # measurement noise [µε]; None = the file's value; a prior: one level inferred
     match: str = "exact"  # measured positions onto the model's: exact or interpolate (along each line)
     discrepancy: str = "shared"  # sigma_a and length shared by the lines, or per_line
 
