@@ -19,6 +19,9 @@ import emcee
 import numpy as np
 
 from torchshm.forward.protocol import model_identity
+from torchshm.inference.peer_errors import (
+    NUMERICAL, PeerNumericalError, first_line, peer_of, where,
+)
 from torchshm.inference.posterior import Posterior
 from torchshm.inference.target import LogJointTarget
 from torchshm.inference.tensorboard import RunTrace, marginal_scalars
@@ -170,12 +173,36 @@ def run_emcee(
             if steps % max(1, log_every) == 0 or steps == n_steps:
                 n_calls = int(problem.n_model_evaluations) - calls_before
                 trace.log(_checkpoint_row(backend, names, window, n_calls))
+    except NUMERICAL as err:
+        if peer_of(err) is None or (isinstance(err, ValueError) and "condition" not in str(err)):
+            raise  # torchshm's own error, or a usage error refused by emcee
+        raise PeerNumericalError(
+            f"emcee failed ({first_line(err)}, at {where(err)}) after {int(backend.iteration)} "
+            f"steps: the walkers' positions are degenerate (they must be linearly independent: "
+            f"no parameter may be the same for every walker) or their log joint is not finite; "
+            f"start the walkers afresh (another seed, a new backend_path) or check the priors"
+        ) from None
     finally:
         trace.close()
+    _check_finite(backend, target)
     return _posterior(problem, backend, trace, target, calls_before, burn, thin, {
         "n_walkers": n_walkers, "n_steps": int(backend.iteration), "n_resumed_steps": done,
         "burn": burn, "thin": thin, "wall_time_s": time.perf_counter() - t0,
     })
+
+
+def _check_finite(backend: emcee.backends.Backend, target: LogJointTarget) -> None:
+    """Refuse a chain none of whose walkers ever had a finite log joint: no move was accepted
+    (emcee compares -inf with -inf), so its "samples" are the starting points."""
+    if int(backend.iteration) and not np.isfinite(backend.get_log_prob()).any():
+        raise PeerNumericalError(
+            f"emcee: the log joint was -inf at every walker and every step "
+            f"({len(target.y)} evaluations, {target.n_failed} failed model runs; first error: "
+            f"{target.error_text()}), so no move was accepted: the likelihood cannot be "
+            "evaluated anywhere the walkers went (a covariance that cannot be factorised, e.g. "
+            "sigma_e = 0 with sigma_m = 0, or a model failing everywhere); give sigma_e > 0 or "
+            "sigma_m > 0, or fix the model"
+        )
 
 
 def _posterior(
