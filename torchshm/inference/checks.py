@@ -57,7 +57,8 @@ def convergence_line(post: Posterior) -> str | None:
     d = post.diagnostics
     rerun = "rerun on the same store (finished model runs are reused)"
     if post.method == "vbmc":
-        evals = d.get("vbmc_func_count", post.n_model_evaluations)
+        evals = int(d.get("vbmc_func_count", post.n_model_evaluations)) + int(
+            d.get("n_start_evaluations", 0))
         reason = str(d.get("message", "")).strip().rstrip(".") or "no convergence"
         return (f"NOT CONVERGED: VBMC stopped after {evals} evaluations before its stability "
                 f"test held ({reason}); the posterior and ELBO may be off: raise max_fun_evals "

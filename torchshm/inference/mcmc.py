@@ -184,25 +184,10 @@ def run_emcee(
         ) from None
     finally:
         trace.close()
-    _check_finite(backend, target)
     return _posterior(problem, backend, trace, target, calls_before, burn, thin, {
         "n_walkers": n_walkers, "n_steps": int(backend.iteration), "n_resumed_steps": done,
         "burn": burn, "thin": thin, "wall_time_s": time.perf_counter() - t0,
     })
-
-
-def _check_finite(backend: emcee.backends.Backend, target: LogJointTarget) -> None:
-    """Refuse a chain none of whose walkers ever had a finite log joint: no move was accepted
-    (emcee compares -inf with -inf), so its "samples" are the starting points."""
-    if int(backend.iteration) and not np.isfinite(backend.get_log_prob()).any():
-        raise PeerNumericalError(
-            f"emcee: the log joint was -inf at every walker and every step "
-            f"({len(target.y)} evaluations, {target.n_failed} failed model runs; first error: "
-            f"{target.error_text()}), so no move was accepted: the likelihood cannot be "
-            "evaluated anywhere the walkers went (a covariance that cannot be factorised, e.g. "
-            "sigma_e = 0 with sigma_m = 0, or a model failing everywhere); give sigma_e > 0 or "
-            "sigma_m > 0, or fix the model"
-        )
 
 
 def _posterior(
