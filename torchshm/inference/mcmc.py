@@ -174,8 +174,9 @@ def run_emcee(
                 n_calls = int(problem.n_model_evaluations) - calls_before
                 trace.log(_checkpoint_row(backend, names, window, n_calls))
     except NUMERICAL as err:
-        if peer_of(err) is None or (isinstance(err, ValueError) and "condition" not in str(err)):
-            raise  # torchshm's own error, or a usage error refused by emcee
+        usage = type(err) is ValueError and "condition" not in str(err)  # refused by emcee
+        if peer_of(err) is None or usage:
+            raise
         raise PeerNumericalError(
             f"emcee failed ({first_line(err)}, at {where(err)}) after {int(backend.iteration)} "
             f"steps: the walkers' positions are degenerate (they must be linearly independent: "
