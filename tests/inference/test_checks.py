@@ -37,6 +37,7 @@ def test_noise_model_too_large_is_among_the_first_lines_of_the_summary() -> None
     assert "too large" in noise[0] and "sigma_m = 0.05" in noise[0]
     assert "Problem(sigma_m=ts.Gamma(...))" in noise[0]
     assert post.diagnostics["noise_chi2_per_n"] < 0.1  # (0.005 / 0.05)² ~ 0.01 plus noise
+    assert post.diagnostics["noise_scatter_ratio"] < 0.05
     assert str(post).splitlines()[0] == post.warnings[0]
     assert post.problem.n_model_evaluations == post.n_model_evaluations  # the checks ran no model
 
@@ -44,6 +45,7 @@ def test_noise_model_too_large_is_among_the_first_lines_of_the_summary() -> None
 def test_a_clean_fit_gets_neither_check_warning() -> None:
     post = _emcee(bending_problem(sigma_m_data=0.05))
     assert 0.5 < post.diagnostics["noise_chi2_per_n"] < 2.0
+    assert 0.5 < post.diagnostics["noise_scatter_ratio"] < 2.0
     assert not {"NOISE MODEL", "PRIOR BOUND"} & set(_tags(post)), post.warnings
 
 

@@ -9,10 +9,18 @@ assumed noise (``sigma_m``, ``sigma_e``) is too large; far above, too small. Lon
 evaluated on at most :data:`MAX_POINTS` evenly spread positions (a Gaussian's marginal on a
 subset is the same Gaussian restricted to it).
 
-The warning threshold: ``chi² / n`` outside ``[1 / RATIO, RATIO]`` (a factor :data:`RATIO` in
-variance, a practical difference), and more than :data:`Z_MAX` standard deviations
-``sqrt(2 n)`` plus the number of fitted parameters (posterior draws, with ``sigma_a`` and
-``l`` fitted to the same residuals, move ``chi²`` by about that many) from ``n``.
+A posterior in the wrong place can look consistent by ``chi²`` alone: a modulus pushed to its
+bound leaves a large smooth misfit, which a large ``sigma_a`` absorbs, and ``chi² / n`` comes
+out near 1. The point-to-point scatter tells the white part of the noise model apart from the
+smooth one: along each 1-D line the differences of neighbouring residuals remove the smooth
+misfit, and their mean square is compared with what the covariance predicts for them
+(``Σ_ii + Σ_jj - 2 Σ_ij``): the *scatter ratio*, 1 if the noise model holds.
+
+The warning threshold, for either ratio: outside ``[1 / RATIO, RATIO]`` (a factor :data:`RATIO`
+in variance, a practical difference), and more than :data:`Z_MAX` standard deviations from 1
+(``chi²``: ``sqrt(2 n)`` plus the number of fitted parameters, since posterior draws, with
+``sigma_a`` and ``l`` fitted to the same residuals, move ``chi²`` by about that many; the
+scatter ratio: ``2 / sqrt(m)`` for `m` differences, neighbours being correlated).
 """
 
 from __future__ import annotations
@@ -48,10 +56,12 @@ def noise_check(post: Posterior) -> tuple[str | None, dict[str, float]]:
     when no stored run lies near the posterior.
 
     Returns:
-        ``(line, {"noise_chi2_per_n", "noise_n", "noise_runs", "noise_run_distance",
-        "noise_model_share"})``: the median ``chi² / n`` over the draws, the readings ``n``
-        per draw, the draws used, the largest RMS distance [posterior sds] between a draw
-        and its run, and the share of the assumed noise variance that is ``sigma_m² eta²``.
+        ``(line, {"noise_chi2_per_n", "noise_n", "noise_scatter_ratio",
+        "noise_n_differences", "noise_runs", "noise_run_distance", "noise_model_share"})``:
+        medians over the draws of ``chi² / n``, of the readings ``n``, of the scatter ratio
+        (NaN without 1-D lines) and of its differences ``m``; the draws used, the largest RMS
+        distance [posterior sds] between a draw and its run, and the share of the assumed
+        white noise variance that is ``sigma_m² eta²``.
     """
     problem = post.problem
     if problem is None or not hasattr(problem, "evaluations"):
@@ -59,16 +69,25 @@ def noise_check(post: Posterior) -> tuple[str | None, dict[str, float]]:
     pairs = _draws_and_runs(post, problem)
     if not pairs:
         return None, {}
-    values = [_chi2(problem, draw, out) for draw, out, _ in pairs]
-    chi2 = float(np.median([v[0] for v in values]))
-    n, share = values[0][1], float(np.median([v[2] for v in values]))
-    numbers = {"noise_chi2_per_n": chi2 / n, "noise_n": float(n), "noise_runs": float(len(pairs)),
+    stats = np.array([_statistics(problem, draw, out) for draw, out, _ in pairs])
+    chi2, n, diff, pred, m, share = (float(v) for v in np.median(stats, axis=0))
+    scatter = diff / pred if pred > 0 else math.nan
+    numbers = {"noise_chi2_per_n": chi2 / n, "noise_n": n, "noise_scatter_ratio": scatter,
+               "noise_n_differences": m, "noise_runs": float(len(pairs)),
                "noise_run_distance": float(max(p[2] for p in pairs)), "noise_model_share": share}
-    slack = Z_MAX * math.sqrt(2.0 * n) + len(post.names)
-    ratio = chi2 / n
-    if 1.0 / RATIO <= ratio <= RATIO or abs(chi2 - n) <= slack:
+    off_chi2 = _off(chi2 / n, (Z_MAX * math.sqrt(2.0 * n) + len(post.names)) / n)
+    off_scatter = _off(scatter, Z_MAX * 2.0 / math.sqrt(m)) if m > 0 else 0
+    direction = off_scatter or off_chi2
+    if not direction:
         return None, numbers
-    return _line(problem, ratio, n, share, len(pairs)), numbers
+    return _line(problem, direction, chi2 / n, scatter, int(n), share, len(pairs)), numbers
+
+
+def _off(ratio: float, tolerance: float) -> int:
+    """-1 (too low), +1 (too high) or 0 for a ratio expected to be 1 within ``tolerance``."""
+    if not math.isfinite(ratio) or (1.0 / RATIO <= ratio <= RATIO) or abs(ratio - 1.0) <= tolerance:
+        return 0
+    return -1 if ratio < 1.0 else 1
 
 
 def _draws_and_runs(post: Posterior, problem: Any) -> list[tuple[np.ndarray, np.ndarray, float]]:
@@ -97,14 +116,15 @@ def _draws_and_runs(post: Posterior, problem: Any) -> list[tuple[np.ndarray, np.
     return out
 
 
-def _chi2(problem: Any, draw: np.ndarray, outputs: np.ndarray) -> tuple[float, int, float]:
-    """(chi², readings, share of sigma_m² eta² in the noise) of one draw's whitened residuals."""
+def _statistics(problem: Any, draw: np.ndarray, outputs: np.ndarray) -> tuple[float, ...]:
+    """``(chi², n, sum of squared neighbour differences, their predicted sum, m, share of
+    sigma_m² eta² in the white noise)`` of one draw's residuals over every block."""
     row = torch.as_tensor(draw, dtype=torch.float64)[None, :]
     eta = problem.at_measured(torch.as_tensor(outputs)[None])[0]  # L x n
     sigma_a, length = problem.split.discrepancy(row)
     sigma_m = _sigma_m(problem, row)
     y = torch.as_tensor(np.asarray(problem.measurements.y, dtype=np.float64))
-    chi2, count, mult, total = 0.0, 0, 0.0, 0.0
+    chi2 = count = diff = pred = m = mult = total = 0.0
     for block in problem.blocks:
         points = block.points
         keep = torch.as_tensor(np.unique(np.linspace(0, len(points) - 1, MAX_POINTS).round().astype(int))) \
@@ -114,15 +134,21 @@ def _chi2(problem: Any, draw: np.ndarray, outputs: np.ndarray) -> tuple[float, i
         m2 = sigma_m**2 * eb.square()
         noise = (m2 + block.sigma_e**2)[None]  # 1 x L_b x n_b
         ell = torch.ones(1, dtype=torch.float64) if length is None else length[:, block.group]
-        cov = covariance(x, problem.kernel, sigma_a[:, block.group], ell, noise)[0]
+        cov = covariance(x, problem.kernel, sigma_a[:, block.group], ell, noise)[0]  # L_b x n_b x n_b
         chol, failed = cholesky_with_jitter(cov)
         if bool(failed.any()):
             continue
-        z = torch.linalg.solve_triangular(chol, (yb - eb).unsqueeze(-1), upper=False)
-        chi2 += float(z.square().sum())
-        count += int(yb.numel())
+        resid = yb - eb
+        z = torch.linalg.solve_triangular(chol, resid.unsqueeze(-1), upper=False)
+        chi2, count = chi2 + float(z.square().sum()), count + int(yb.numel())
         mult, total = mult + float(m2.sum()), total + float(noise.sum())
-    return chi2, max(count, 1), mult / total if total > 0 else 0.0
+        if x.ndim == 1 and x.shape[0] > 1:  # neighbours along a line
+            var = cov.diagonal(dim1=-2, dim2=-1)
+            near = cov.diagonal(offset=1, dim1=-2, dim2=-1)
+            diff += float(resid.diff(dim=-1).square().sum())
+            pred += float((var[:, 1:] + var[:, :-1] - 2.0 * near).sum())
+            m += resid.shape[0] * (resid.shape[1] - 1)
+    return chi2, max(count, 1), diff, pred, m, mult / total if total > 0 else 0.0
 
 
 def _sigma_m(problem: Any, row: torch.Tensor) -> float:
@@ -132,14 +158,17 @@ def _sigma_m(problem: Any, row: torch.Tensor) -> float:
     return float(problem.sigma_m)
 
 
-def _line(problem: Any, ratio: float, n: int, share: float, runs: int) -> str:
-    """The ``NOISE MODEL`` warning for ``chi² / n = ratio``."""
+def _line(problem: Any, direction: int, chi2: float, scatter: float, n: int, share: float,
+          runs: int) -> str:
+    """The ``NOISE MODEL`` warning: the noise model too large (``direction < 0``) or too small."""
     sigma_m, sigma_e = getattr(problem, "sigma_m", None), getattr(problem, "sigma_e", None)
     assumed = f"sigma_m = {sigma_m:g}" if isinstance(sigma_m, (int, float)) else "sigma_m"
     assumed += f", sigma_e = {sigma_e:g} µε" if isinstance(sigma_e, (int, float)) else ", sigma_e"
-    head = (f"NOISE MODEL: whitened residuals of the measured strains at {runs} posterior "
-            f"draws give chi²/n = {ratio:.3g} (n = {n}; 1 if the noise model held)")
-    if ratio < 1.0:
+    scatter_text = "" if not math.isfinite(scatter) else f", neighbour scatter ratio {scatter:.3g}"
+    head = (f"NOISE MODEL: residuals of the measured strains at {runs} posterior draws give "
+            f"chi²/n = {chi2:.3g}{scatter_text} (n = {n}; both 1 if the noise model held)")
+    if direction < 0:
+        ratio = scatter if math.isfinite(scatter) and scatter < 1.0 else chi2
         culprit = "sigma_m" if share >= 0.5 else "sigma_e"
         smaller = (f"a smaller sigma_m (about {float(sigma_m) * math.sqrt(ratio):.2g})"
                    if culprit == "sigma_m" and isinstance(sigma_m, (int, float)) else
