@@ -12,7 +12,7 @@ import torchshm
 
 pytestmark = pytest.mark.slow
 
-VBMC_ARGS = ["method.max_fun_evals=20", "method.n_samples=2000", "resolution=4",
+VBMC_ARGS = ["method=vbmc", "method.max_fun_evals=20", "method.n_samples=2000", "resolution=4",
              "predict.loads=[70.4]", "predict.n=100", "store=evals.sqlite"]
 EMCEE_ARGS = ["method=emcee", "method.n_walkers=8", "method.n_steps=40", "method.burn=20",
               "method.log_every=10", "method.window=80", "resolution=4", "predict.loads=[]"]
@@ -28,7 +28,7 @@ def test_vbmc_run_writes_every_output(cli, tmp_path: Path) -> None:
     result = cli(*VBMC_ARGS)
     assert result.returncode == 0, result.stderr
     run = only_child(only_child(tmp_path / "runs"))  # runs/<date>/<time>_<overrides>
-    assert run.name.endswith("_method.max_fun_evals=20,method.n_samples=2000,predict.loads=[70.4],"
+    assert run.name.endswith("_method.max_fun_evals=20,method.n_samples=2000,method=vbmc,predict.loads=[70.4],"
                              "predict.n=100,resolution=4,store=evals.sqlite")
     for name in ("posterior.nc", "summary.csv", "corner.png", "elbo.png", "trace.png",
                  "predictive.csv", "predictive.png", "run.json", "identify.log"):

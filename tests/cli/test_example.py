@@ -17,8 +17,9 @@ from tests.cli.conftest import CONSOLE_SCRIPT, REPO, run_cli
 
 pytestmark = pytest.mark.slow
 
-BUDGET = ["method.max_fun_evals=20", "method.n_samples=2000", "data.resolution=2", "predict.n=200"]
-OUTPUTS = ("posterior.nc", "summary.csv", "corner.png", "elbo.png", "trace.png", "predictive.csv",
+BUDGET = ["method.max_model_evaluations=15", "method.n_steps=60", "method.final_steps=60",
+          "data.resolution=2", "predict.n=200"]
+OUTPUTS = ("posterior.nc", "summary.csv", "corner.png", "trace.png", "predictive.csv",
            "predictive.png", "run.json", "identify.log")
 
 

@@ -11,7 +11,7 @@ from test_bad_input import assert_one_line_error
 
 @pytest.mark.parametrize("args, fragment", [
     (["priors.E_c.a=100", "priors.E_c.b=10"], "lo < hi"),
-    (["method.max_fun_evals=5"], "method.max_fun_evals"),
+    (["method=vbmc", "method.max_fun_evals=5"], "method.max_fun_evals"),
     (["priors.length={dist:fixed,value:0}"], "fixed length must be > 0"),
 ])
 def test_refused_run_leaves_no_run_folder(cli, tmp_path: Path, args: list[str], fragment: str) -> None:

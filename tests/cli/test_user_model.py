@@ -80,7 +80,7 @@ def test_model_whose_load_cases_miss_the_data(cli, user: Path) -> None:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("method", [
-    ["method.max_fun_evals=20", "method.n_samples=2000"],
+    ["method=vbmc", "method.max_fun_evals=20", "method.n_samples=2000"],
     ["method=emcee", "method.n_walkers=10", "method.n_steps=60", "method.burn=30",
      "method.log_every=20", "method.window=200", "executor=joblib", "executor.n_jobs=2"],
 ])

@@ -37,6 +37,7 @@ log = logging.getLogger(__name__)
 #: abscissa of trace.png: VBMC history rows are per iteration, emcee rows per checkpoint
 TRACE_AXES = (
     ("n_evaluations", "log-joint evaluations"),
+    ("n_model_evaluations", "model runs (one point per round)"),
     ("n_samples", "samples (steps x walkers); statistics of the last window"),
 )
 

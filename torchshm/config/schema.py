@@ -132,13 +132,14 @@ class EmulatorConfig(MethodConfig):
 
     name: MethodName = MethodName.emulator
     batch_size: int = 5  # model runs per round, evaluated concurrently
-    max_model_evaluations: Optional[int] = None  # budget of model runs; None = 15 per physical parameter
+    max_model_evaluations: Optional[int] = None  # cap on model runs; None = 50 (D + 2), PyVBMC's
     n_initial: Optional[int] = None  # initial design; None = a multiple of batch_size >= 2 P + 1
-    n_steps: int = 300  # emcee steps per round on the emulated posterior (no model runs)
-    final_steps: int = 400  # emcee steps on the last emulator (fits the posterior density)
+    n_steps: int = 100  # emcee steps per round on the emulated posterior (no model runs)
+    final_steps: int = 200  # emcee steps on the last emulator (fits the posterior density)
     tv_tol: float = 0.05  # stop when successive posteriors differ by less (total variation) ...
     patience: int = 2  # ... in this many successive rounds
-    sd_tol: float = 0.3  # ... and the emulator's log-likelihood sd is below this [nats]
+    sd_tol: float = 0.3  # ... the emulator's log-likelihood sd is below this [nats]
+    check_tol: float = 1.0  # ... and the last batch was within this of the emulator [nats]
 
 
 @dataclass

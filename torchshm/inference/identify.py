@@ -15,16 +15,17 @@ METHODS = ("vbmc", "emcee", "emulator")
 
 
 def identify(
-    problem: Problem, method: str = "vbmc", seed: int = 0, *, log_dir: str | Path | None = None,
+    problem: Problem, method: str = "emulator", seed: int = 0, *, log_dir: str | Path | None = None,
     **options: Any,
 ) -> Posterior:
     """Infer the posterior of ``problem``'s parameters.
 
     Args:
         problem: a :class:`~torchshm.Problem`.
-        method: ``"vbmc"`` (PyVBMC, the paper's method), ``"emcee"`` (the paper's benchmark:
-            affine-invariant ensemble MCMC) or ``"emulator"`` (an adaptive emulator of the
-            model, refined in batches of concurrent model runs).
+        method: ``"emulator"`` (the default: an adaptive emulator of the model, refined in
+            batches of concurrent model runs until its stop rule holds), ``"vbmc"`` (PyVBMC,
+            the paper's method) or ``"emcee"`` (the paper's benchmark: affine-invariant
+            ensemble MCMC).
         seed: seed of every random draw of the run.
         log_dir: TensorBoard folder written during the run (per VBMC iteration, or every
             ``log_every`` emcee steps), or None.
@@ -34,7 +35,7 @@ def identify(
             ``burn``, ``thin``, ``backend_path``, ``log_every``, ``window``, ``moves``.
             emulator (few model runs, in concurrent batches): ``batch_size`` (5),
             ``max_model_evaluations``, ``n_jobs``, ``executor`` and the stop rule's
-            ``tv_tol``, ``patience``, ``sd_tol``. See ``docs/inference.md``.
+            ``tv_tol``, ``patience``, ``sd_tol``, ``check_tol``. See ``docs/inference.md``.
 
     Returns:
         The :class:`Posterior`. A run that did not converge has ``converged = False`` and warns.

@@ -140,7 +140,7 @@ def run_vbmc(
     """
     t0 = time.perf_counter()
     names = list(problem.names)
-    hard = np.asarray(problem.hard_bounds, dtype=np.float64)
+    hard = np.asarray(problem.search_bounds, dtype=np.float64)
     plausible = np.asarray(problem.plausible_bounds, dtype=np.float64)
     budget = vbmc_budget(len(names), options)
     options = {k: v for k, v in options.items() if not (k == "max_fun_evals" and v is None)}

@@ -31,6 +31,7 @@ from torch import Tensor
 
 from torchshm.kernels import Kernel, get_kernel
 from torchshm.likelihood.gaussian import log_likelihood
+from torchshm.likelihood.statespace import is_markov
 
 
 @dataclass(frozen=True)
@@ -116,8 +117,11 @@ def blocks_log_likelihood(
     kernel: str | Kernel,
     sigma_a: Tensor,
     length: Tensor | None,
-    sigma_m: float = 0.05,
+    sigma_m: float | Tensor = 0.05,
     method: str = "auto",
+    extra_variance: Tensor | None = None,
+    sigma_e_scale: Tensor | None = None,
+    state_space_from: int | None = None,
 ) -> Tensor:
     """Sum over ``blocks`` of the log-likelihoods of Eq. (21).
 
@@ -128,8 +132,14 @@ def blocks_log_likelihood(
         kernel: a kernel name or instance.
         sigma_a: `B x G` discrepancy scales [µε], one column per group (differentiable).
         length: `B x G` correlation lengths [m], or ``None`` for a kernel without length.
-        sigma_m: multiplicative model error (dimensionless), >= 0.
+        sigma_m: multiplicative model error (dimensionless), >= 0: a number or a `B` tensor.
         method: ``"auto"``, ``"dense"`` or ``"state_space"`` for every block.
+        extra_variance: `B x L x n` variance [µε²] added to each reading's diagonal (e.g. an
+            emulator's predictive variance of ``eta``), or None.
+        sigma_e_scale: `B` factors on every block's noise sd (an inferred noise level), or None.
+        state_space_from: with ``method="auto"``, take the exact O(n) state space for 1-D
+            blocks of a Markov kernel from this many points (None: the likelihood's own
+            threshold, tuned for one parameter vector; a large batch gains from far fewer).
 
     Returns:
         `B` log-likelihoods (float64); -inf or NaN as :func:`log_likelihood` gives them.
@@ -141,7 +151,13 @@ def blocks_log_likelihood(
         eb = eta[:, block.loads][:, :, block.points]
         ell = None if length is None else length[:, block.group]
         sa = sigma_a[:, block.group]
-        value = log_likelihood(yb, eb, block.x, kern, sa, ell, sigma_m, block.sigma_e, method)
+        extra = None if extra_variance is None else extra_variance[:, block.loads][:, :, block.points]
+        noise = block.sigma_e if sigma_e_scale is None else block.sigma_e * sigma_e_scale
+        form = method
+        if (method == "auto" and state_space_from is not None and block.x.ndim == 1
+                and block.sigma_e > 0 and is_markov(kern) and block.points.numel() >= state_space_from):
+            form = "state_space"
+        value = log_likelihood(yb, eb, block.x, kern, sa, ell, sigma_m, noise, form, extra)
         total = value if total is None else total + value
     if total is None:
         raise ValueError("likelihood blocks: no block (no valid reading)")

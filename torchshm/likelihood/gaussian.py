@@ -35,9 +35,10 @@ def log_likelihood(
     kernel: str | Kernel,
     sigma_a: object,
     length: object | None = None,
-    sigma_m: float = 0.05,
-    sigma_e: float = 0.1,
+    sigma_m: float | Tensor = 0.05,
+    sigma_e: float | Tensor = 0.1,
     method: str = "auto",
+    extra_variance: Tensor | None = None,
 ) -> Tensor:
     """Log-likelihood of Eq. (21) for a batch of model predictions and kernel parameters.
 
@@ -64,9 +65,14 @@ def log_likelihood(
         sigma_a: discrepancy scale [µε], broadcastable to `...` (differentiable).
         length: correlation length [m], broadcastable to `...` (differentiable); ignored (may
             be ``None``) for a kernel without length such as ``independent``.
-        sigma_m: standard deviation of the multiplicative model error (dimensionless), >= 0.
-        sigma_e: standard deviation of the measurement noise [µε], >= 0.
+        sigma_m: standard deviation of the multiplicative model error (dimensionless), >= 0;
+            a number, or a tensor broadcastable to `...` when it is inferred.
+        sigma_e: standard deviation of the measurement noise [µε], >= 0; a number or a
+            tensor broadcastable to `...`.
         method: ``"auto"`` (default), ``"dense"`` or ``"state_space"``.
+        extra_variance: `... x L x n` variance [µε²] added to the diagonal of each load case's
+            covariance, or None: e.g. an emulator's predictive variance of ``eta``, which makes
+            the density the exact marginal over a Gaussian error of ``eta``.
 
     Returns:
         `...` log-likelihoods (float64 tensor; the batch shape is the broadcast of `eta`'s,
@@ -83,35 +89,60 @@ def log_likelihood(
     y = as_float64(y).to(eta.device)
     x = as_float64(x).to(eta.device)
     _check_shapes(y, eta, x)
-    sigma_m, sigma_e = _check_scale("sigma_m", sigma_m), _check_scale("sigma_e", sigma_e)
+    sigma_m, sigma_e = _scale_arg("sigma_m", sigma_m, eta), _scale_arg("sigma_e", sigma_e, eta)
     if kern.has_length and length is None:
         raise ValueError(f"log_likelihood: kernel {kern.name!r} needs a length")
     sa = as_float64(sigma_a).to(eta.device)
     ell = as_float64(0.0 if not kern.has_length else length).to(eta.device)
+    scales = [v.shape for v in (sigma_m, sigma_e) if isinstance(v, Tensor)]
+    extra = None if extra_variance is None else as_float64(extra_variance).to(eta.device)
     try:
-        batch = torch.broadcast_shapes(eta.shape[:-2], sa.shape, ell.shape)
+        batch = torch.broadcast_shapes(eta.shape[:-2], sa.shape, ell.shape, *scales,
+                                       *([] if extra is None else [extra.shape[:-2]]))
     except RuntimeError:
         raise ValueError(
-            f"log_likelihood: shapes of sigma_a {tuple(sa.shape)} and length {tuple(ell.shape)} "
-            f"do not broadcast with eta's batch {tuple(eta.shape[:-2])}"
+            f"log_likelihood: shapes of sigma_a {tuple(sa.shape)}, length {tuple(ell.shape)}, "
+            f"sigma_m/sigma_e {scales} or extra_variance do not broadcast with eta's batch "
+            f"{tuple(eta.shape[:-2])}"
         ) from None
     n_batch = math.prod(batch)
     eta_f = eta.expand(*batch, *y.shape).reshape(n_batch, *y.shape)
     sa_f, ell_f = sa.expand(batch).reshape(n_batch), ell.expand(batch).reshape(n_batch)
+    sm_f, se_f = (v.expand(batch).reshape(n_batch) if isinstance(v, Tensor) else v
+                  for v in (sigma_m, sigma_e))
+    extra_f = None if extra is None else extra.expand(*batch, *y.shape).reshape(n_batch, *y.shape)
     dim = 1 if x.ndim == 1 else x.shape[1]
-    form = choose_method(kern, y.shape[1], method, noise_positive=sigma_e > 0, dim=dim)
-    matrices = 1 if sigma_m == 0.0 else y.shape[0]  # covariances per parameter vector
+    positive = bool((se_f > 0).all()) if isinstance(se_f, Tensor) else se_f > 0
+    form = choose_method(kern, y.shape[1], method, noise_positive=positive, dim=dim)
+    shared = extra is None and not isinstance(sm_f, Tensor) and sm_f == 0.0
+    matrices = 1 if shared else y.shape[0]  # covariances per parameter vector
     per_vector = matrices * y.shape[1] ** 2 * 8 if form == "dense" else y.numel() * 8
     step = max(1, (CHUNK_BYTES if form == "dense" else STATE_SPACE_CHUNK_BYTES) // per_vector)
     parts = []
     for i in range(0, n_batch, step):
         c = slice(i, i + step)
-        gaussian = Eq21(eta_f[c], x, kern, sa_f[c], ell_f[c], sigma_m, sigma_e, form)
+        gaussian = Eq21(eta_f[c], x, kern, sa_f[c], ell_f[c], _part(sm_f, c), _part(se_f, c), form,
+                        None if extra_f is None else extra_f[c])
         parts.append(gaussian.log_prob(y))
     out = parts[0] if len(parts) == 1 else torch.cat(parts) if parts else eta_f.new_zeros(0)
     finite = torch.isfinite(eta_f).all(-1).all(-1) & torch.isfinite(sa_f) & torch.isfinite(ell_f)
     bad = ~finite | (sa_f < 0) | (ell_f < 0)
+    for v in (sm_f, se_f):
+        if isinstance(v, Tensor):
+            bad = bad | ~torch.isfinite(v) | (v < 0)
     return torch.where(bad, torch.nan, out).reshape(batch)
+
+
+def _scale_arg(name: str, value: object, like: Tensor) -> float | Tensor:
+    """A scale as a float (checked) or, when it is a tensor with a batch, a float64 tensor
+    (negative or non-finite entries give NaN log-likelihoods, as sigma_a's do)."""
+    if isinstance(value, Tensor) and value.ndim:
+        return as_float64(value).to(like.device)
+    return _check_scale(name, value.item() if isinstance(value, Tensor) else value)
+
+
+def _part(value: float | Tensor, part: slice) -> float | Tensor:
+    return value[part] if isinstance(value, Tensor) else value
 
 
 def _check_shapes(y: Tensor, eta: Tensor, x: Tensor) -> None:

@@ -120,8 +120,11 @@ class Eq21:
         x: `n` positions [m], or `n x d` coordinates [m] (dense or diagonal forms only).
         kern: the discrepancy kernel.
         sigma_a: `B` discrepancy scales [µε]; length: `B` correlation lengths [m].
-        sigma_m: multiplicative model error (dimensionless); sigma_e: noise sd [µε].
+        sigma_m: multiplicative model error (dimensionless); sigma_e: noise sd [µε]; each
+            one number, or a `B` tensor (one per parameter vector, when they are inferred).
         method: ``"auto"``, ``"dense"`` or ``"state_space"`` (see :func:`choose_method`).
+        extra: `B x L x n` variance [µε²] added to the diagonal, or None: e.g. an emulator's
+            predictive variance of ``eta`` (the exact marginal over a Gaussian error of it).
     """
 
     eta: Tensor
@@ -129,19 +132,30 @@ class Eq21:
     kern: Kernel
     sigma_a: Tensor
     length: Tensor
-    sigma_m: float
-    sigma_e: float
+    sigma_m: float | Tensor
+    sigma_e: float | Tensor
     method: str = "auto"
+    extra: Tensor | None = None
 
     def __post_init__(self) -> None:
         self.method = choose_method(self.kern, self.x.shape[0], self.method, dim=_dim(self.x))
+
+    def _noise(self) -> Tensor:
+        """The diagonal ``sigma_e² + sigma_m² eta² (+ extra)`` `B x L x n` [µε²]."""
+        noise = _rows(self.sigma_e, self.eta).square() + _rows(self.sigma_m, self.eta).square() * self.eta.square()
+        return noise if self.extra is None else noise + self.extra
+
+    @property
+    def _shared_noise(self) -> bool:
+        """Whether the diagonal is the same for every load case (one factor per vector)."""
+        return self.extra is None and not isinstance(self.sigma_m, Tensor) and self.sigma_m == 0.0
 
     def log_prob(self, y: Tensor) -> Tensor:
         """Log densities `B` of ``y`` (`L x n`), summed over load cases; -inf where a dense
         covariance cannot be factorised even with the largest jitter (differentiable)."""
         n_loads, n = y.shape
         resid = y - self.eta
-        noise = self.sigma_e**2 + self.sigma_m**2 * self.eta.square()  # B x L x n
+        noise = self._noise()  # B x L x n
         if self.method == "diagonal":
             var = self.kern.diag(_points(self.x), sigma_a=self.sigma_a)[:, None, :] + noise
             singular = (var <= 0).any(-1).any(-1)
@@ -155,7 +169,7 @@ class Eq21:
             else:
                 x = self.x
             return statespace.log_density(resid, noise, x, self.kern, self.sigma_a, self.length)
-        if self.sigma_m == 0.0:
+        if self._shared_noise:
             noise = noise[:, :1]  # identical for every load case: one factorisation
         chol, failed = cholesky_with_jitter(covariance(self.x, self.kern, self.sigma_a, self.length, noise))
         z = torch.linalg.solve_triangular(chol, resid.unsqueeze(-1), upper=False)
@@ -177,20 +191,21 @@ class Eq21:
         """
         eta, x = self.eta, self.x
         z1 = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
-        out = eta + self.sigma_m * eta * z1
+        out = eta + _rows(self.sigma_m, eta) * eta * z1
+        sigma_e = _rows(self.sigma_e, eta)
         if self.method == "state_space":
             order = self._order()
             f = statespace.sample(x[order], self.kern, self.sigma_a, self.length, eta.shape[1], generator)
             e = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
             if bool((order[1:] > order[:-1]).all()):  # sorted positions: no gather and scatter
-                out += f + self.sigma_e * e
+                out += f + sigma_e * e
                 return out
-            out[..., order] += f + self.sigma_e * e[..., order]
+            out[..., order] += f + (sigma_e * e)[..., order]
             return out
         z2 = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
         if self.method == "diagonal":
-            sd = (self.kern.diag(_points(x), sigma_a=self.sigma_a) + self.sigma_e**2).sqrt()  # B x n
-            return out + sd[:, None, :] * z2
+            sd = (self.kern.diag(_points(x), sigma_a=self.sigma_a)[:, None, :] + sigma_e.square()).sqrt()
+            return out + sd * z2
         n = x.shape[0]
         step = max(1, SAMPLE_CHUNK_BYTES // (n * n * 8))
         said = time.monotonic()
@@ -199,7 +214,7 @@ class Eq21:
                 logger.info("drawing: %d of %d parameter vectors done", start, eta.shape[0])
                 said = time.monotonic()
             part = slice(start, start + step)
-            noise = torch.full_like(eta[part, :1], self.sigma_e**2)
+            noise = sigma_e[part].square().expand(-1, 1, eta.shape[-1])
             cov = covariance(x, self.kern, self.sigma_a[part], self.length[part], noise)
             chol, failed = cholesky_with_jitter(cov)
             if bool(failed.any()):
@@ -220,3 +235,11 @@ def _dim(x: Tensor) -> int:
 def _points(x: Tensor) -> Tensor:
     """`n` values standing for the `n` points of ``x`` (the diagonal needs their number only)."""
     return x if x.ndim == 1 else x[:, 0]
+
+
+def _rows(value: float | Tensor, like: Tensor) -> Tensor:
+    """A number or a `B` tensor as a `B x 1 x 1` (or scalar) tensor that broadcasts with
+    `B x L x n` ``like``."""
+    if isinstance(value, Tensor) and value.ndim:
+        return value.to(like).reshape(-1, 1, 1)
+    return torch.as_tensor(float(value), dtype=like.dtype, device=like.device).reshape(1, 1, 1).expand(like.shape[0], 1, 1)

@@ -22,6 +22,10 @@ from torchshm.priors import Prior
 
 #: the statistical parameters, in the order they follow the physical ones
 STATISTICAL = ("sigma_a", "length")
+#: noise levels of Eq. (21) that may be inferred (given a prior), after the statistical ones:
+#: ``sigma_m`` (multiplicative model error) and ``sigma_e`` [µε] (measurement noise, one level
+#: for every sensor line)
+NOISE = ("sigma_m", "sigma_e")
 
 
 def read_priors(
@@ -104,8 +108,8 @@ def _check_scale(name: str, value: Prior | float) -> None:
     """``sigma_a`` [µε] and ``length`` [m] are scales: a fixed value must be >= 0 (``length``
     > 0: a length of 0 would turn the kernel into the independent one) and a prior's hard bounds
     must exclude negative values (else evaluations are spent where the likelihood is undefined)."""
-    if isinstance(value, Prior):
-        lo = value.hard_bounds[0]
+    if hasattr(value, "log_prob"):
+        lo = value.hard_bounds[0]  # type: ignore[union-attr]
         if lo < 0:
             raise ValueError(
                 f"priors: {name} is a scale and cannot be negative, but its prior {value!r} has "
@@ -118,8 +122,8 @@ def _check_scale(name: str, value: Prior | float) -> None:
 
 def _prior_or_value(name: str, value: object) -> Prior | float:
     """``value`` if a prior, else a finite float; ``ValueError`` naming ``name`` otherwise."""
-    if isinstance(value, Prior):
-        return value
+    if isinstance(value, Prior) or (hasattr(value, "log_prob") and hasattr(value, "hard_bounds")):
+        return value  # a prior of the library, or a user's with log_prob and hard_bounds
     if isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value):
         return float(value)
     raise ValueError(f"priors: entry {name!r} must be a Prior or a finite number, got {value!r}")
@@ -151,12 +155,18 @@ class ParameterSplit:
     ) -> ParameterSplit:
         """The split of validated priors (see :func:`read_priors`): entries that are numbers
         are fixed, the others inferred (physical first, then ``sigma_a`` and ``length``, line
-        by line with ``groups``)."""
+        by line with ``groups``, then the noise levels of :data:`NOISE` that have a prior)."""
         fixed = {n: float(v) for n, v in priors.items() if _is_number(v)}  # type: ignore[arg-type]
         split = cls((), tuple(physical_names), fixed, has_length, tuple(groups))
         names = [n for n in physical_names if n not in fixed]
         names += [n for n in split.statistical_names if n in priors and n not in fixed]
+        names += [n for n in NOISE if n in priors and n not in fixed]
         return dataclasses.replace(split, names=tuple(names))
+
+    def noise(self, theta: object, name: str, fixed: float) -> float | Tensor:
+        """``name``'s value (:data:`NOISE`) for rows `B x D`: a `B` tensor when it is inferred,
+        else ``fixed``."""
+        return self.column(theta, name) if name in self.names else fixed
 
     @property
     def statistical_names(self) -> tuple[str, ...]:

@@ -3,6 +3,13 @@
 One object gives the log density and the draws that :class:`~torchshm.problem.Problem`,
 :class:`~torchshm.inference.Posterior` and :func:`~torchshm.predictive.kl_divergence` use, so
 the prior of a run is evaluated the same way wherever it is needed.
+
+A prior may be bounded on one side only (``Gamma(2, 2)`` without ``bounds``: ``(0, inf)``).
+PyVBMC needs every parameter bounded on both sides or on neither, so the methods search the
+box :attr:`JointPrior.search_bounds`: the hard bounds with each open end of a one-sided prior
+closed at its ``1 - 1e-12`` quantile (:data:`TAIL_MASS` of prior mass is left out, a change of
+the log evidence by ~1e-12 nats). A user prior with only ``log_prob`` and ``hard_bounds`` gets
+its open end from a scan of its log density (where it has fallen by :data:`TAIL_DROP` nats).
 """
 
 from __future__ import annotations
@@ -14,6 +21,13 @@ import torch
 from torch import Tensor
 
 from torchshm.arrays import as_float64
+
+#: prior mass left beyond each open end of a one-sided prior by :attr:`JointPrior.search_bounds`
+TAIL_MASS = 1e-12
+#: drop of the log density [nats] that closes an open end of a prior without quantiles
+TAIL_DROP = 40.0
+#: quantiles of a plausible box derived from draws (the central 68.27 %)
+PLAUSIBLE_Q = (0.15865525393145707, 0.8413447460685429)
 
 
 class JointPrior:
@@ -63,22 +77,85 @@ class JointPrior:
         return total if isinstance(theta, Tensor) else total.detach().numpy()[()]
 
     def sample(self, n: int, rng: np.random.Generator | int | None = None) -> np.ndarray:
-        """`n x D` independent draws (each prior's ``sample(n, rng)``, in column order)."""
+        """`n x D` independent draws (each prior's ``sample(n, rng)``, in column order).
+
+        A prior without ``sample`` is drawn uniformly from its plausible box (a starting
+        spread for the samplers, not its distribution)."""
         rng = np.random.default_rng(rng)
-        cols = [prior.sample(n, rng) for prior in self.components]  # type: ignore[attr-defined]
+        cols = []
+        for k, prior in enumerate(self.components):
+            if hasattr(prior, "sample"):
+                cols.append(np.asarray(prior.sample(n, rng), dtype=np.float64))
+            else:
+                lo, hi = self.plausible_bounds[k]
+                cols.append(rng.uniform(lo, hi, size=int(n)))
         return np.column_stack(cols) if cols else np.zeros((int(n), 0))
 
     @property
     def hard_bounds(self) -> np.ndarray:
         """`D x 2` hard bounds (outside them the density is zero)."""
-        return np.array([p.hard_bounds for p in self.components], dtype=np.float64).reshape(-1, 2)  # type: ignore[attr-defined]
+        return np.array([_hard(p) for p in self.components], dtype=np.float64).reshape(-1, 2)
+
+    @property
+    def search_bounds(self) -> np.ndarray:
+        """`D x 2` hard bounds with the open end of each one-sided prior closed (module doc):
+        bounded on both sides or on neither, as PyVBMC requires."""
+        out = self.hard_bounds.copy()
+        for k, prior in enumerate(self.components):
+            lo, hi = out[k]
+            if np.isfinite(lo) != np.isfinite(hi):
+                out[k] = _closed(prior, lo, hi)
+        return out
 
     @property
     def plausible_bounds(self) -> np.ndarray:
-        """`D x 2` plausible bounds (where most of the prior mass lies)."""
-        return np.array(  # type: ignore[attr-defined]
-            [p.plausible_bounds for p in self.components], dtype=np.float64  # type: ignore[attr-defined]
-        ).reshape(-1, 2)
+        """`D x 2` plausible bounds (where most of the prior mass lies); for a prior without
+        them, the central 68 % of its draws, or of its search box when it cannot draw."""
+        rows = []
+        for prior in self.components:
+            given = getattr(prior, "plausible_bounds", None)
+            rows.append(given if given is not None else _plausible(prior))
+        return np.array(rows, dtype=np.float64).reshape(-1, 2)
 
     def __repr__(self) -> str:
         return f"JointPrior({dict(zip(self.names, self.components))!r})"
+
+
+def _hard(prior: object) -> tuple[float, float]:
+    bounds = getattr(prior, "hard_bounds", None)
+    return (-np.inf, np.inf) if bounds is None else (float(bounds[0]), float(bounds[1]))
+
+
+def _closed(prior: object, lo: float, hi: float) -> tuple[float, float]:
+    """``(lo, hi)`` of a one-sided prior with its open end at the ``TAIL_MASS`` quantile, or,
+    without ``ppf``, where the log density has dropped ``TAIL_DROP`` nats below its peak
+    along a geometric scan outward from the finite end."""
+    upper = not np.isfinite(hi)
+    if hasattr(prior, "ppf"):
+        end = float(np.asarray(prior.ppf(np.array([1.0 - TAIL_MASS if upper else TAIL_MASS])))[0])
+        if np.isfinite(end):
+            return (lo, end) if upper else (end, hi)
+    edge = lo if upper else hi
+    sign = 1.0 if upper else -1.0
+    steps = edge + sign * np.ldexp(1.0, np.arange(-20, 60)) * max(1.0, abs(edge))
+    values = np.asarray(prior.log_prob(steps), dtype=np.float64)  # type: ignore[attr-defined]
+    finite = np.isfinite(values)
+    peak = values[finite].max() if finite.any() else 0.0
+    below = np.flatnonzero(finite & (values < peak - TAIL_DROP)
+                           & (np.arange(values.size) > np.argmax(np.where(finite, values, -np.inf))))
+    end = float(steps[below[0]] if below.size else steps[-1])
+    return (lo, end) if upper else (end, hi)
+
+
+def _plausible(prior: object) -> tuple[float, float]:
+    if hasattr(prior, "sample"):
+        draws = np.asarray(prior.sample(4000, np.random.default_rng(0)), dtype=np.float64)
+        lo, hi = np.quantile(draws, PLAUSIBLE_Q)
+        return float(lo), float(hi)
+    lo, hi = _hard(prior)
+    if np.isfinite(lo) != np.isfinite(hi):
+        lo, hi = _closed(prior, lo, hi)
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        raise ValueError(f"prior {prior!r}: give plausible_bounds (it has no sample and no "
+                         "finite hard bounds to derive them from)")
+    return lo + PLAUSIBLE_Q[0] * (hi - lo), lo + PLAUSIBLE_Q[1] * (hi - lo)

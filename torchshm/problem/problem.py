@@ -23,7 +23,7 @@ from torchshm.arrays import as_float64, as_numpy
 from torchshm.likelihood.blocks import blocks_log_likelihood, make_blocks
 from torchshm.priors import Prior, paper_priors
 from torchshm.problem.matching import match_measured
-from torchshm.problem.parameters import ParameterSplit, read_priors
+from torchshm.problem.parameters import NOISE, ParameterSplit, read_priors
 from torchshm.problem.prior import JointPrior
 from torchshm.storage.cached_model import CachedModel
 
@@ -50,9 +50,13 @@ class Problem:
             and ``length`` are the physical parameters, passed to the model in this order (in
             ``model.names`` order when the model declares names). A ``length`` entry is dropped
             for a kernel without length.
-        sigma_m: standard deviation of the multiplicative model error, >= 0.
+        sigma_m: standard deviation of the multiplicative model error, >= 0; or a prior (e.g.
+            ``Uniform(0, 0.2)``), which makes ``sigma_m`` an inferred parameter (after the
+            discrepancy's) so the data decide how much of the misfit scales with the strains.
+            A ``sigma_m`` entry in ``priors`` does the same.
         sigma_e: measurement noise [µε], >= 0, for every line; ``None`` means
-            ``measurements.sigma_e`` (per line when the measurements give one per line).
+            ``measurements.sigma_e`` (per line when the measurements give one per line); or a
+            prior, which makes ``sigma_e`` [µε] (one level for every line) inferred.
         store: path of an evaluation store or an ``EvaluationStore``; every model evaluation
             goes through :func:`torchshm.storage.evaluate` and is persisted there. ``None``
             keeps the evaluations in this process (:mod:`torchshm.storage.cache`).
@@ -83,8 +87,8 @@ class Problem:
         measurements: Measurements,
         kernel: str | Kernel = "matern32",
         priors: Mapping[str, Prior | float] | None = None,
-        sigma_m: float = 0.05,
-        sigma_e: float | None = None,
+        sigma_m: float | Prior = 0.05,
+        sigma_e: float | Prior | None = None,
         store: str | PathLike[str] | Any | None = None,
         *,
         match: str = "exact",
@@ -95,13 +99,25 @@ class Problem:
         if discrepancy not in ("shared", "per_line"):
             raise ValueError(f"Problem: discrepancy must be 'shared' or 'per_line', got {discrepancy!r}")
         self.kernel = get_kernel(kernel)
-        self.sigma_m = _scale("sigma_m", sigma_m)
+        given = dict(paper_priors() if priors is None else priors)
+        noise_priors = {n: given.pop(n) for n in NOISE if n in given}
+        if hasattr(sigma_m, "log_prob"):
+            noise_priors["sigma_m"] = sigma_m
+        if hasattr(sigma_e, "log_prob"):
+            noise_priors["sigma_e"] = sigma_e
+        self.sigma_m = sigma_m if "sigma_m" not in noise_priors else noise_priors["sigma_m"]
+        if not hasattr(self.sigma_m, "log_prob"):
+            self.sigma_m = _scale("sigma_m", self.sigma_m)
         lines = list(measurements.line_slices()) if hasattr(measurements, "line_slices") else [None]
-        self.sigma_e = _noise(measurements, lines, sigma_e)
+        if "sigma_e" in noise_priors and hasattr(noise_priors["sigma_e"], "log_prob"):
+            self.sigma_e, base = noise_priors["sigma_e"], 1.0  # blocks scaled by the inferred σe
+        else:
+            fixed_e = noise_priors.get("sigma_e", sigma_e)
+            self.sigma_e = base = _noise(measurements, lines, fixed_e)
         groups = lines if discrepancy == "per_line" and lines != [None] else []
-        self.priors, self.physical_names = read_priors(
-            paper_priors() if priors is None else priors, self.kernel, getattr(model, "names", None), groups
-        )
+        self.priors, self.physical_names = read_priors(given, self.kernel, getattr(model, "names", None), groups)
+        for name, prior in noise_priors.items():
+            self.priors[name] = _noise_prior(name, prior)
         self.split = ParameterSplit.from_priors(
             self.priors, self.physical_names, self.kernel.has_length, groups
         )
@@ -114,7 +130,7 @@ class Problem:
         mask = getattr(measurements, "mask", np.ones(self._y.shape, dtype=bool))
         slices = getattr(measurements, "line_slices", lambda: {None: slice(0, self._x.shape[0])})()
         self.blocks = make_blocks(
-            self._x, mask, slices, self.sigma_e, {g: i for i, g in enumerate(groups)} if groups else None
+            self._x, mask, slices, base, {g: i for i, g in enumerate(groups)} if groups else None
         )
         self._model = CachedModel(model, store)
 
@@ -128,6 +144,21 @@ class Problem:
         if not self.positions.exact:
             raise ValueError("Problem.x_index: positions are interpolated (match='interpolate'); use at_measured()")
         return self.positions.left
+
+    @property
+    def y(self) -> Tensor:
+        """`L x n` measured strains [µε] (masked readings as the measurements hold them)."""
+        return self._y
+
+    def noise_of(self, rows: Tensor) -> tuple[float | Tensor, str, None, Tensor | None]:
+        """Arguments ``(sigma_m, method, extra_variance, sigma_e_scale)`` of
+        :func:`~torchshm.likelihood.blocks.blocks_log_likelihood` for parameter rows `B x D`:
+        the fixed σm or its `B` inferred values, and the inferred σe [µε] (the blocks then
+        hold a noise level of 1) or None."""
+        fixed_m = 0.0 if hasattr(self.sigma_m, "log_prob") else float(self.sigma_m)
+        scale = self.split.noise(rows, "sigma_e", 1.0)
+        return (self.split.noise(rows, "sigma_m", fixed_m), "auto", None,
+                scale if isinstance(scale, Tensor) else None)
 
     @property
     def n_lines(self) -> int:
@@ -144,6 +175,12 @@ class Problem:
     def hard_bounds(self) -> np.ndarray:
         """`D x 2` hard bounds of the inferred parameters, in :attr:`names` order."""
         return self.prior.hard_bounds
+
+    @property
+    def search_bounds(self) -> np.ndarray:
+        """`D x 2` box the methods search: :attr:`hard_bounds` with the open end of a one-sided
+        prior closed at its 1 - 1e-12 quantile (:attr:`JointPrior.search_bounds`)."""
+        return self.prior.search_bounds
 
     @property
     def plausible_bounds(self) -> np.ndarray:
@@ -189,7 +226,8 @@ class Problem:
         eta = self.at_measured(self.model_outputs(theta_p))
         finite = torch.isfinite(eta).all(-1).all(-1)
         eta = torch.where(finite[:, None, None], eta, 0.0)
-        value = blocks_log_likelihood(self._y, eta, self.blocks, self.kernel, sigma_a, length, self.sigma_m)
+        value = blocks_log_likelihood(self._y, eta, self.blocks, self.kernel, sigma_a, length,
+                                      *self.noise_of(rows))
         return torch.where(finite, _nan_to_neg_inf(value), -torch.inf)
 
     def _where_rows(self, flat: Tensor, mask: Tensor, fn: Any) -> Tensor:
@@ -260,6 +298,17 @@ def _noise(measurements: Any, lines: list, sigma_e: float | None) -> float | dic
     if isinstance(given, Mapping):
         return {label: _scale(f"sigma_e of line {label!r}", given[label]) for label in lines}
     return _scale("sigma_e", given)
+
+
+def _noise_prior(name: str, prior: object) -> object:
+    """A noise level's prior, checked: a prior (``log_prob``) with hard bounds within [0, inf)."""
+    if not hasattr(prior, "log_prob"):
+        return _scale(name, prior)
+    lo = getattr(prior, "hard_bounds", (0.0, math.inf))[0]
+    if lo < 0:
+        raise ValueError(f"Problem: the prior of {name} {prior!r} allows negative values (hard "
+                         f"bounds {tuple(prior.hard_bounds)}); give bounds with a lower bound >= 0")
+    return prior
 
 
 def _scale(name: str, value: object) -> float:

@@ -73,19 +73,26 @@ class SharedKernelGP(gpytorch.models.ExactGP):
         with gpytorch.settings.fast_computations(log_prob=False):
             return mll(self(*self.train_inputs), self.train_targets)
 
-    def fit(self, lengthscales: tuple[float, ...] = (0.2, 0.5, 1.0), max_iter: int = 200) -> float:
+    def fit(self, lengthscales: tuple[float, ...] = (0.2, 0.5, 1.0), max_iter: int = 200,
+            warm: dict[str, Tensor] | None = None) -> float:
         """Maximise the marginal likelihood by L-BFGS from several initial lengthscales.
 
         Args:
             lengthscales: initial lengthscale (unit-box units) of each restart.
             max_iter: L-BFGS iterations per restart.
+            warm: hyperparameters of an earlier fit (:meth:`hyperparameters`) to start one
+                more restart from, first (a warm start when the design has grown a little).
 
         Returns:
             The best mean log marginal likelihood per output and training point.
         """
         best, best_state = -math.inf, None
-        for start in lengthscales:
-            self._initialise(start)
+        starts: list[float | dict[str, Tensor]] = ([warm] if warm else []) + list(lengthscales)
+        for start in starts:
+            if isinstance(start, dict):
+                self.load_state_dict(start, strict=False)
+            else:
+                self._initialise(start)
             value = self._optimise(max_iter)
             if value > best:
                 best, best_state = value, {k: v.clone() for k, v in self.state_dict().items()}
@@ -94,6 +101,11 @@ class SharedKernelGP(gpytorch.models.ExactGP):
         self.load_state_dict(best_state)
         self.freeze()
         return best
+
+    def hyperparameters(self) -> dict[str, Tensor]:
+        """A copy of the fitted hyperparameters (raw kernel and noise parameters), for
+        :meth:`fit`'s warm start of a GP on a grown design."""
+        return {k: v.detach().clone() for k, v in self.state_dict().items()}
 
     def _initialise(self, lengthscale: float) -> None:
         self.covar_module.base_kernel.lengthscale = torch.full_like(
@@ -131,6 +143,13 @@ class SharedKernelGP(gpytorch.models.ExactGP):
         covar = self.likelihood(self.forward(inputs)).lazy_covariance_matrix
         self._factor = covar.cholesky().to_dense()
         self._weights = torch.cholesky_solve(self.train_targets.mT, self._factor)
+
+    @property
+    def factor(self) -> Tensor:
+        """`N x N` lower Cholesky factor of the training covariance (cached by :meth:`freeze`)."""
+        if self._factor is None:
+            self.freeze()
+        return self._factor
 
     @property
     def weights(self) -> Tensor:

@@ -63,7 +63,7 @@ class Surrogate:
 
     def __repr__(self) -> str:
         return (f"Surrogate(of={self.model_identity!r}, N={self.theta_p.shape[0]}, "
-                f"L={self.loads.numel()}, n={self.x.numel()}, kernel={self.gp.kernel!r})")
+                f"L={self.loads.numel()}, n={self.x.shape[0]}, kernel={self.gp.kernel!r})")
 
     def __call__(self, theta_p: Tensor | np.ndarray) -> Tensor:
         """Posterior mean strains [µε] `... x L x n` at physical parameters `... x P`."""
@@ -91,7 +91,7 @@ class Surrogate:
             means.append(mean)
             if var is not None:
                 variances.append(var)
-        shape = (*batch, self.loads.numel(), self.x.numel())
+        shape = (*batch, self.loads.numel(), self.x.shape[0])
         mean = torch.cat(means).reshape(shape)
         return mean, (torch.cat(variances).reshape(shape) if variance else None)
 

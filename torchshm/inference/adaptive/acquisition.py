@@ -35,10 +35,11 @@ def choose_batch(emulator: FieldEmulator, theta_p: np.ndarray, utility: np.ndarr
         rng: generator for the candidate subset.
 
     Returns:
-        ``(batch, gains)``: `b x P` chosen θp (b <= batch_size: fewer when candidates run out)
-        and the utility each had when chosen.
+        ``(batch, index)``: `b x P` chosen θp (b <= batch_size: fewer when candidates run out)
+        and their `b` row indices in ``theta_p``.
     """
     theta_p = np.asarray(theta_p, dtype=np.float64)
+    keep = np.arange(theta_p.shape[0])
     if theta_p.shape[0] > MAX_CANDIDATES:
         keep = rng.choice(theta_p.shape[0], MAX_CANDIDATES, replace=False)
         theta_p, utility = theta_p[keep], utility[keep]
@@ -63,7 +64,7 @@ def choose_batch(emulator: FieldEmulator, theta_p: np.ndarray, utility: np.ndarr
         cov = cov - np.outer(c, c) / max(c[best], 1e-300)
         new_var = np.clip(np.diag(cov), 0.0, None)
         util = util * np.where(usable, new_var / np.where(usable, var, 1.0), 0.0)
-    return theta_p[chosen], np.array(gains)
+    return theta_p[chosen], keep[np.asarray(chosen, dtype=np.int64)]
 
 
 def design(plausible: np.ndarray, n: int, seed: int) -> np.ndarray:

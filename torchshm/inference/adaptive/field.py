@@ -59,11 +59,14 @@ class FieldEmulator:
 
     @classmethod
     def fit(cls, theta_p: np.ndarray, outputs: np.ndarray, x: Tensor, loads: Tensor,
-            transform: dict[str, Any] | None = None, kernel: str = "matern52") -> FieldEmulator:
+            transform: dict[str, Any] | None = None, kernel: str = "matern52",
+            previous: FieldEmulator | None = None) -> FieldEmulator:
         """Fit to runs ``theta_p`` `N x P` with measured strains ``outputs`` `N x L x n` [µε].
 
-        Rows with a non-finite output are left out (failed runs). Raises ``ValueError`` with
-        fewer than ``P + 2`` usable runs.
+        Rows with a non-finite output are left out (failed runs). With ``previous`` (the last
+        round's emulator) the marginal likelihood is maximised from its hyperparameters and
+        from one fresh start, instead of three fresh starts. Raises ``ValueError`` with fewer
+        than ``P + 2`` usable runs.
         """
         theta = torch.as_tensor(np.asarray(theta_p), dtype=torch.float64)
         out = torch.as_tensor(np.asarray(outputs), dtype=torch.float64)
@@ -78,7 +81,11 @@ class FieldEmulator:
         gp = build_gp(scaling, theta, out, kernel, 1e-10)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", NumericalWarning)  # jitter on near noise-free data
-            log_ml = gp.fit(lengthscales=(0.2, 0.5, 1.0), max_iter=200)
+            if previous is None:
+                log_ml = gp.fit(lengthscales=(0.2, 0.5, 1.0), max_iter=200)
+            else:
+                log_ml = gp.fit(lengthscales=(0.5,), max_iter=100,
+                                warm=previous.surrogate.gp.hyperparameters())
         names = tuple(f"theta_p[{i}]" for i in range(theta.shape[1]))
         sur = Surrogate(gp, scaling, x, loads, names, "adaptive-field-emulator", theta, out,
                         {"log_marginal_likelihood": log_ml})
@@ -102,10 +109,7 @@ class FieldEmulator:
         with torch.no_grad():
             ia, ib = tr.inputs(a), tr.inputs(b)
             prior = gp.covar_module(ia, ib).to_dense()
-            factor = gp._factor if gp._factor is not None else None
-            if factor is None:
-                gp.freeze()
-                factor = gp._factor
+            factor = gp.factor
             sa = torch.linalg.solve_triangular(factor, gp.cross_covariance(ia).mT, upper=False)
             sb = torch.linalg.solve_triangular(factor, gp.cross_covariance(ib).mT, upper=False)
             return prior - sa.mT @ sb

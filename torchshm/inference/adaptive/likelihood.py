@@ -1,65 +1,66 @@
 """The log joint on the field emulator, carrying the emulator's own uncertainty.
 
-For a parameter vector θ = (θp, σa, l) the emulator gives the strains' mean m(θp) and variance
-v_j(θp) at every measured output j. The likelihood is Eq. (21) with ``eta = m`` and the noise
-variance raised from σe² to ``σe² + max_j v_j(θp)``: a covariance at least as large as Eq. (21)
-plus ``diag(v)`` (the exact marginal over a Gaussian emulator error when σm = 0), so the
-posterior is never more confident than the emulator allows. Once the emulator is accurate
-where the posterior lies (the stop rule asks for it), the added variance is negligible and the
-likelihood is Eq. (21) itself. The likelihood is computed by the public
-:func:`torchshm.log_likelihood`.
+For a parameter vector θ = (θp, σa, l[, σm, σe]) the emulator gives the strains' mean m(θp) and
+variance v_j(θp) at every measured reading j. The likelihood is Eq. (21) with ``eta = m`` and
+``c · v_j`` added to each reading's variance: the exact marginal over a Gaussian emulator
+error when σm = 0, and a close one otherwise. ``c >= 1`` is the emulator's calibration (how
+much larger its errors at new runs were than it predicted, :mod:`.validation`), so the
+posterior is never more confident than the emulator's record allows. Once the emulator is
+accurate where the posterior lies (the stop rule asks for it), the added variance is
+negligible and the likelihood is Eq. (21) itself.
+
+The data are seen only through the problem's one view of them: ``problem.at_measured`` (the
+measured load cases and positions, exact or interpolated), ``problem.blocks`` (one independent
+Gaussian per sensor line and set of valid readings: several fibres, dropouts, 2-D fields) and
+``problem.noise_of`` (fixed or inferred σm, σe); the density is
+:func:`torchshm.likelihood.blocks.blocks_log_likelihood`, the one the problem itself uses.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
 from torch import Tensor
 
 from torchshm.inference.adaptive.field import FieldEmulator
-from torchshm.likelihood import log_likelihood
+from torchshm.likelihood.blocks import blocks_log_likelihood
+
+if TYPE_CHECKING:
+    from torchshm.problem import Problem
+
+#: 1-D blocks of a Markov kernel from this many readings use the exact O(n) state space (a
+#: batch of walkers gains from it far below the likelihood's one-vector threshold)
+STATE_SPACE_FROM = 64
 
 
-def physical_columns(problem: Any, theta: np.ndarray) -> np.ndarray:
+def physical_columns(problem: Problem, theta: np.ndarray) -> np.ndarray:
     """Full physical vectors θp `B x P` (fixed values filled in) of rows ``theta`` `B x D`
     (the problem's :class:`~torchshm.problem.ParameterSplit`)."""
     return problem.split.physical(np.atleast_2d(np.asarray(theta, dtype=np.float64))).numpy()
-
-
-def noise_levels(sigma_e: float, extra: np.ndarray, step: float = 0.01) -> np.ndarray:
-    """Noise sd [µε] of each row: ``sqrt(σe² + extra)`` rounded up to a grid of relative
-    ``step`` (so rows share a few levels and are evaluated in batches; rounding up keeps the
-    covariance at least as large)."""
-    exact = np.sqrt(sigma_e**2 + np.clip(extra, 0.0, None))
-    if sigma_e <= 0:
-        return exact
-    k = np.ceil(np.log(exact / sigma_e) / np.log1p(step) - 1e-9).clip(0)
-    return sigma_e * np.exp(k * np.log1p(step))
 
 
 class EmulatedLogJoint:
     """Log prior plus the emulated log-likelihood of ``problem``; no model run.
 
     Args:
-        problem: a :class:`~torchshm.Problem` (its priors, kernel, σm, σe, data).
-        emulator: the :class:`FieldEmulator` of the measured strains.
+        problem: a :class:`~torchshm.Problem` (its priors, kernel, noise levels, data view).
+        emulator: the :class:`FieldEmulator` of the strains at the measured readings.
+        inflation: factor ``c >= 1`` on the emulator's variance (its calibration).
     """
 
-    def __init__(self, problem: Any, emulator: FieldEmulator) -> None:
+    def __init__(self, problem: Problem, emulator: FieldEmulator, inflation: float = 1.0) -> None:
         self.problem, self.emulator = problem, emulator
-        m = problem.measurements
-        self.y = torch.as_tensor(np.asarray(m.y, dtype=np.float64))
-        self.x = torch.as_tensor(np.asarray(m.x, dtype=np.float64))
+        self.inflation = float(max(1.0, inflation))
+        self.y = problem.y
+        self.valid = _valid_mask(problem)  # L x n readings that enter some block
 
-    def parts(self, theta: np.ndarray) -> tuple[Tensor, Tensor, Tensor, Tensor | None]:
-        """Emulator mean and variance `B x L x n`, σa `B` and l `B` (None for a kernel without
-        length) of rows `B x D`, split by ``problem.split`` (fixed values filled in)."""
+    def parts(self, theta: np.ndarray) -> tuple[Tensor, Tensor, Tensor]:
+        """Emulator mean and inflated variance `B x L x n` [µε, µε²] and the rows `B x D`."""
         rows = torch.as_tensor(np.atleast_2d(theta), dtype=torch.float64)
-        theta_p, sa, ell = self.problem.split.split(rows)
-        mean, var = self.emulator.predict(theta_p)
-        return mean, var, sa, ell
+        mean, var = self.emulator.predict(self.problem.split.physical(rows))
+        return mean, var * self.inflation, rows
 
     def __call__(self, theta: np.ndarray) -> np.ndarray:
         """Log joint `B` of rows ``theta`` `B x D`; -inf outside the prior support."""
@@ -73,22 +74,18 @@ class EmulatedLogJoint:
 
     def log_likelihood(self, theta: np.ndarray) -> np.ndarray:
         """Emulated log-likelihood `B` of rows `B x D` inside the support."""
+        mean, var, rows = self.parts(theta)
+        return self.at(mean, var, rows)
+
+    def at(self, mean: Tensor, var: Tensor | None, rows: Tensor) -> np.ndarray:
+        """Eq. (21) log-likelihood `B` of predictions ``mean`` `B x L x n` with the extra
+        variance ``var`` (or None) for parameter rows `B x D`."""
         p = self.problem
-        mean, var, sa, ell = self.parts(theta)
-        levels = noise_levels(p.sigma_e, var.reshape(var.shape[0], -1).amax(-1).numpy())
-        if p.kernel.name == "independent":  # covariance (σa² + σe²) I + σm² diag(m²): the
-            extra = torch.as_tensor(levels**2 - p.sigma_e**2)  # raised noise folds into σa
-            values = log_likelihood(self.y, mean, self.x, p.kernel, (sa.square() + extra).sqrt(),
-                                    None, p.sigma_m, p.sigma_e).numpy()
-            values[np.isnan(values)] = -np.inf
-            return values
-        values = np.empty(theta.shape[0])
-        for level in np.unique(levels):  # one batched call per noise level
-            rows = torch.as_tensor(np.flatnonzero(levels == level))
-            values[rows.numpy()] = log_likelihood(
-                self.y, mean[rows], self.x, p.kernel, sa[rows],
-                None if ell is None else ell[rows], p.sigma_m, float(level),
-            ).numpy()
+        sigma_a, length = p.split.discrepancy(rows)
+        sigma_m, method, _, sigma_e = p.noise_of(rows)
+        with torch.no_grad():
+            values = blocks_log_likelihood(p.y, mean, p.blocks, p.kernel, sigma_a, length, sigma_m,
+                                           method, var, sigma_e, STATE_SPACE_FROM).numpy()
         values[np.isnan(values)] = -np.inf
         return values
 
@@ -97,15 +94,39 @@ class EmulatedLogJoint:
 
         Returns:
             ``(share, sd_loglik)``, both `B`: the emulator's share of the predictive variance,
-            ``v_j / (v_j + s_j²)`` averaged over the measured outputs, with ``s_j²`` the
-            diagonal of the Eq. (21) covariance (``σm² m_j² + k(x_j, x_j) + σe²``, the kernel's
-            own diagonal); and the standard deviation [nats] of the log-likelihood that the
-            emulator error causes, to first order ``sqrt(Σ_j v_j / s_j²)``.
+            ``v_j / (v_j + s_j²)`` averaged over the valid readings, with ``s_j²`` the diagonal
+            of the Eq. (21) covariance (``σm² m_j² + k(x_j, x_j) + σe²``); and the standard
+            deviation [nats] of the log-likelihood that the emulator error causes, to first
+            order ``sqrt(Σ_j v_j / s_j²)``.
         """
+        mean, var, rows = self.parts(theta)
+        data = self.data_variance(mean, rows)
+        valid = self.valid.to(var.dtype)
+        share = ((var / (var + data)) * valid).sum((-1, -2)) / valid.sum()
+        sd = ((var / data) * valid).sum((-1, -2)).sqrt()
+        return share.numpy(), sd.numpy()
+
+    def data_variance(self, mean: Tensor, rows: Tensor) -> Tensor:
+        """Diagonal of the Eq. (21) covariance `B x L x n` [µε²] (σm² m² + k(x, x) + σe²),
+        block by block; 1 at readings outside every block."""
         p = self.problem
-        mean, var, sa, _ = self.parts(theta)
-        kernel_diag = p.kernel.diag(self.x, sigma_a=sa)[:, None, :]  # B x 1 x n
-        data = p.sigma_m**2 * mean.square() + kernel_diag + p.sigma_e**2
-        share = (var / (var + data)).mean((-1, -2)).numpy()
-        sd = (var / data).sum((-1, -2)).sqrt().numpy()
-        return share, sd
+        sigma_a, _ = p.split.discrepancy(rows)
+        sigma_m, _, _, scale = p.noise_of(rows)
+        sm = sigma_m.reshape(-1, 1, 1) if isinstance(sigma_m, Tensor) else sigma_m
+        out = torch.ones_like(mean)
+        for block in p.blocks:
+            idx = (block.loads[:, None], block.points[None, :])
+            noise = block.sigma_e if scale is None else block.sigma_e * scale.reshape(-1, 1, 1)
+            points = block.x if block.x.ndim == 1 else block.x[:, 0]
+            kern = p.kernel.diag(points, sigma_a=sigma_a[:, block.group])[:, None, :]
+            m = mean[:, idx[0], idx[1]]
+            out[:, idx[0], idx[1]] = (sm * m).square() + kern + torch.as_tensor(noise).square()
+        return out
+
+
+def _valid_mask(problem: Problem) -> Tensor:
+    """`L x n` booleans: the readings some block of ``problem`` uses."""
+    valid = torch.zeros(problem.y.shape, dtype=torch.bool)
+    for block in problem.blocks:
+        valid[block.loads[:, None], block.points[None, :]] = True
+    return valid

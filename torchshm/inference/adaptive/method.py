@@ -26,69 +26,78 @@ import logging
 import time
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import torch
 
 from torchshm.inference.adaptive import sampling
 from torchshm.inference.adaptive.acquisition import choose_batch, design
 from torchshm.inference.adaptive.field import FieldEmulator, model_transform
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, physical_columns
 from torchshm.inference.adaptive.runs import RunSet, run_batch
+from torchshm.inference.adaptive.validation import check_batch
 from torchshm.inference.posterior import Posterior
 from torchshm.inference.tensorboard import RunTrace, marginal_scalars
+
+if TYPE_CHECKING:
+    from torchshm.problem import Problem
 
 logger = logging.getLogger(__name__)
 
 
 def run_emulator(
-    problem: Any, seed: int = 0, *, log_dir: str | Path | None = None, batch_size: int = 5,
+    problem: Problem, seed: int = 0, *, log_dir: str | Path | None = None, batch_size: int = 5,
     max_model_evaluations: int | None = None, n_jobs: int = 1, executor: Any | None = None,
-    n_initial: int | None = None, n_walkers: int | None = None, n_steps: int = 300,
-    final_steps: int = 400, tv_tol: float = 0.05, patience: int = 2, sd_tol: float = 0.3,
-    n_evidence: int = 8000, emulator_kernel: str = "matern52",
+    n_initial: int | None = None, n_walkers: int | None = None, n_steps: int = 100,
+    final_steps: int = 200, tv_tol: float = 0.05, patience: int = 2, sd_tol: float = 0.3,
+    check_tol: float = 1.0, n_evidence: int = 8000, emulator_kernel: str = "matern52",
 ) -> Posterior:
     """Identify ``problem`` with the adaptive field emulator (see :func:`torchshm.identify`).
 
     Args:
-        problem: a :class:`~torchshm.Problem`; a store makes runs crash-safe and parallel.
+        problem: a :class:`~torchshm.Problem` (any campaign: sensor lines, dropouts,
+            interpolated positions, 2-D fields); a store makes runs crash-safe and parallel.
         seed: seed of the design, the chains and the evidence draws.
         log_dir: TensorBoard folder (one row of scalars per round), or None.
         batch_size: model runs per round after the initial design.
-        max_model_evaluations: budget of new model runs (None: ``15 P``, at least
-            ``n_initial + 2 batch_size``); 0 identifies from the runs in the store alone.
+        max_model_evaluations: cap on new model runs (None: PyVBMC's default budget
+            ``50 (D + 2)``, D the inferred parameters); the stop rule normally ends the run long
+            before. 0 identifies from the runs in the store alone.
         n_jobs: local worker processes for a batch (joblib; needs a store when != 1).
         executor: a submitit executor (:func:`torchshm.storage.make_executor`; needs a store).
         n_initial: size of the initial design (None: the smallest multiple of ``batch_size``
             of at least ``2 P + 1``).
-        n_walkers: emcee walkers (None: ``max(24, 4 D)``).
-        n_steps: emcee steps per round (the second half is kept).
+        n_walkers: emcee walkers (None: ``max(48, 8 D)``: a likelihood call costs about the
+            same for 10 or 50 walkers, so many walkers and few steps are cheaper than the reverse).
+        n_steps: emcee steps per round (the second half is kept; three times as many in round
+            0, whose walkers start from the prior).
         final_steps: emcee steps on the last emulator, to fit the posterior's mixture density.
         tv_tol, patience: stop once the total variation to the previous round's posterior is
             below ``tv_tol`` in ``patience`` successive rounds...
-        sd_tol: ...and the emulator's log-likelihood sd, averaged over the posterior, is
-            below ``sd_tol`` nats.
+        sd_tol: ...the emulator's log-likelihood sd, averaged over the posterior, is below
+            ``sd_tol`` nats...
+        check_tol: ...and the last batch of runs, made at posterior draws before the emulator
+            saw them, was within ``check_tol`` nats of the emulator's log-likelihood
+            (:mod:`.validation`).
         n_evidence: importance samples of the log evidence and the returned posterior draws.
         emulator_kernel: GP kernel of the field emulator, "matern52" or "rbf".
 
     Returns:
         The :class:`Posterior` (``method="emulator"``); ``converged`` is the stop rule's verdict
-        (False when the budget ran out first, with a warning).
+        (False when the cap ran out first, with a warning).
     """
     t0 = time.perf_counter()
-    m = problem.measurements
-    if len(getattr(m, "lines", (None,))) > 1 or getattr(m, "n_missing", 0) or getattr(problem, "blocks", [0])[1:]:
-        raise ValueError("method='emulator': one sensor line with every reading valid only; use 'vbmc' or 'emcee'")
-    hard = np.asarray(problem.hard_bounds, dtype=np.float64)
+    hard = np.asarray(problem.search_bounds, dtype=np.float64)
     plausible = np.asarray(problem.plausible_bounds, dtype=np.float64)
     names, dim = list(problem.names), len(problem.names)
     n_phys = len(problem.physical_names)
     batch_size = _positive("batch_size", batch_size)
     n_initial = _positive("n_initial", n_initial or batch_size * -(-(2 * n_phys + 1) // batch_size))
     if max_model_evaluations is None:
-        max_model_evaluations = max(15 * n_phys, n_initial + 2 * batch_size)
+        max_model_evaluations = max(50 * (dim + 2), n_initial + 2 * batch_size)
     budget = _positive("max_model_evaluations", max_model_evaluations, minimum=0)
-    n_walkers = int(n_walkers or max(24, 4 * dim))
+    n_walkers = int(n_walkers or max(48, 8 * dim))
     transform = model_transform(problem.model)
     rng = np.random.default_rng([seed, 29])
     runs = RunSet.from_problem(problem)
@@ -100,43 +109,65 @@ def run_emulator(
     n_design = n_initial if budget >= n_initial or n_reused < n_phys + 2 else 0
     batch = physical_columns(problem, design(plausible, min(n_design, max(budget, n_phys + 2)),
                                              seed))
+    batch_rows: np.ndarray | None = None
     walkers = sampling.walkers_from(problem.sample_prior(20 * n_walkers, rng), n_walkers, rng)
     previous: EmulatedLogJoint | None = None
+    emulator: FieldEmulator | None = None
     prev_samples: np.ndarray | None = None
-    calm, converged = 0, False
+    calm, converged, inflation = 0, False, 1.0
+    x_index, loads = torch.arange(problem.y.shape[1], dtype=torch.float64), _loads(problem)
+    if n_reused:
+        logger.info("resumed: %d runs from the store", n_reused)
     try:
         for r in range(budget + 1):
             t_round = time.perf_counter()
-            new = run_batch(problem, runs, batch, n_jobs, executor)
-            emulator = FieldEmulator.fit(runs.theta_p, runs.outputs, _tensor(problem, "x"),
-                                         _tensor(problem, "loads"), transform, emulator_kernel)
-            log_joint = EmulatedLogJoint(problem, emulator)
-            steps = n_steps if r > 0 else 2 * n_steps
+            n_before = runs.theta_p.shape[0]
+            new, outputs = run_batch(problem, runs, batch, n_jobs, executor)
+            check = (check_batch(previous, emulator, batch_rows, outputs)
+                     if previous is not None and emulator is not None and batch_rows is not None
+                     else None)
+            if check is not None and np.isfinite(check.calibration):
+                inflation = max(1.0, check.calibration)
+            emulator = FieldEmulator.fit(runs.theta_p, runs.outputs, x_index, loads, transform,
+                                         emulator_kernel, previous=emulator)
+            log_joint = EmulatedLogJoint(problem, emulator, inflation)
+            steps = n_steps if r > 0 else 3 * n_steps
             samples, walkers = sampling.run_chain(log_joint, walkers, steps, seed + 1000 * r)
-            draws = samples[rng.choice(samples.shape[0], min(600, samples.shape[0]), False)]
+            pick = rng.choice(samples.shape[0], min(600, samples.shape[0]), False)
+            draws = samples[pick]
             tv = (sampling.total_variation(log_joint(draws), previous(draws))
                   if previous is not None else 1.0)
             mmtv = sampling.marginal_tv(samples, prev_samples) if prev_samples is not None else 1.0
             share, sd = log_joint.emulator_share(draws)
             calm = calm + 1 if tv < tv_tol else 0
-            converged = calm >= patience and float(sd.mean()) < sd_tol
+            checked = check is not None and check.passed(check_tol)
+            converged = calm >= patience and float(sd.mean()) < sd_tol and checked
             row = {"round": float(r), "n_runs": float(len(batch)), "n_new_runs": float(new),
                    "n_model_evaluations": float(runs.n_new), "n_emulator_runs":
                    float(runs.theta_p.shape[0]), "tv": tv, "mmtv": mmtv,
                    "emulator_share": float(share.mean()), "emulator_share_max": float(share.max()),
-                   "emulator_loglik_sd": float(sd.mean()),
+                   "emulator_loglik_sd": float(sd.mean()), "emulator_inflation": inflation,
+                   "check_loglik_error": check.max_error if check is not None else np.nan,
                    "wall_time_s": time.perf_counter() - t_round}
             row.update(marginal_scalars(names, samples))
             trace.log(row)
-            logger.info("round %d: %d new runs (%d in all), TV %.3f, MMTV %.3f, emulator "
-                        "log-likelihood sd %.3f nats", r, new, runs.n_new, tv, mmtv, sd.mean())
+            reused = runs.theta_p.shape[0] - n_before - new
+            logger.info("round %d: %d runs (%d new, %d from the store; %d new in all), TV %.3f, "
+                        "emulator log-likelihood sd %.3f nats, last batch off by %.3g nats",
+                        r, len(batch), new, max(0, reused), runs.n_new, tv, sd.mean(),
+                        row["check_loglik_error"])
             rounds.append({**row, "batch": np.asarray(batch).tolist()})
             left = budget - runs.n_new
             if converged or left <= 0:
                 break
-            utility = sd**2
-            batch, _ = choose_batch(emulator, physical_columns(problem, draws), utility,
-                                    min(batch_size, left), rng)
+            want = min(batch_size, left)
+            batch, chosen = choose_batch(emulator, physical_columns(problem, draws), sd**2, want, rng)
+            if len(chosen) < want:  # nothing left to learn by the rule: test at random draws
+                extra = rng.choice(np.setdiff1d(np.arange(draws.shape[0]), chosen),
+                                   want - len(chosen), replace=False)
+                chosen = np.concatenate([chosen, extra])
+                batch = physical_columns(problem, draws[chosen])
+            batch_rows = draws[chosen]
             previous, prev_samples = log_joint, samples
     finally:
         trace.close()
@@ -147,7 +178,7 @@ def run_emulator(
     })
 
 
-def _posterior(problem: Any, log_joint: EmulatedLogJoint, walkers: np.ndarray,
+def _posterior(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray,
                rounds: list[dict[str, Any]], runs: RunSet, trace: RunTrace, converged: bool,
                seed: int, extra: dict[str, Any]) -> Posterior:
     """Final chain, mixture density and evidence on the last emulator; the Posterior."""
@@ -156,10 +187,12 @@ def _posterior(problem: Any, log_joint: EmulatedLogJoint, walkers: np.ndarray,
     log_z, log_z_sd, ess, samples = sampling.importance(log_joint, vp, extra["n_evidence"], seed)
     if not converged:
         warnings.warn(
-            f"method='emulator' stopped at its budget of {extra['budget']} model runs before "
+            f"method='emulator' stopped at its cap of {extra['budget']} model runs before "
             f"the stop rule held (last round: TV {rounds[-1]['tv']:.3f}, emulator "
-            f"log-likelihood sd {rounds[-1]['emulator_loglik_sd']:.3f} nats); the posterior "
-            "may still move: raise max_model_evaluations", RuntimeWarning, stacklevel=3)
+            f"log-likelihood sd {rounds[-1]['emulator_loglik_sd']:.3f} nats, last batch off by "
+            f"{rounds[-1]['check_loglik_error']:.3g} nats); the posterior may still move and "
+            "is widened by the emulator's own uncertainty: raise max_model_evaluations",
+            RuntimeWarning, stacklevel=3)
     diagnostics = {
         "rounds": rounds, "n_rounds": len(rounds), "n_failed_evaluations": runs.n_failed,
         "n_reused_runs": extra["n_reused_runs"], "n_emulator_runs": int(runs.theta_p.shape[0]),
@@ -175,11 +208,9 @@ def _posterior(problem: Any, log_joint: EmulatedLogJoint, walkers: np.ndarray,
     )
 
 
-def _tensor(problem: Any, what: str) -> Any:
-    import torch
-
-    m = problem.measurements
-    return torch.as_tensor(np.asarray(getattr(m, what), dtype=np.float64))
+def _loads(problem: Problem) -> torch.Tensor:
+    """`L` measured load cases, as the emulator's outputs are laid out."""
+    return torch.as_tensor(np.asarray(problem.measurements.loads, dtype=np.float64))
 
 
 def _positive(name: str, value: Any, minimum: int = 1) -> int:

@@ -12,12 +12,16 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import torch
 
 from torchshm.forward.protocol import output_shape
 from torchshm.storage import canonical_theta, evaluate
+
+if TYPE_CHECKING:
+    from torchshm.problem import Problem
 
 
 @dataclass
@@ -38,7 +42,7 @@ class RunSet:
     errors: list[str] = field(default_factory=list)
 
     @classmethod
-    def from_problem(cls, problem: Any) -> RunSet:
+    def from_problem(cls, problem: Problem) -> RunSet:
         """The runs already in the problem's store (another kernel's or resolution's)."""
         theta_p, outputs = problem.evaluations()
         out = measured(problem, np.asarray(outputs, dtype=np.float64))
@@ -56,23 +60,27 @@ class RunSet:
                 self.outputs = np.concatenate([self.outputs, out[None]])
 
 
-def measured(problem: Any, outputs: np.ndarray) -> np.ndarray:
-    """Model outputs `N x L_model x n_model` restricted to the measured loads and positions."""
-    return outputs[:, problem.load_index][:, :, problem.x_index]
+def measured(problem: Problem, outputs: np.ndarray) -> np.ndarray:
+    """Model outputs `N x L_model x n_model` at the measured loads and positions `N x L x n`
+    (exact or interpolated: :meth:`Problem.at_measured`)."""
+    if outputs.shape[0] == 0:
+        return np.zeros((0, *tuple(problem.y.shape)))
+    return problem.at_measured(torch.as_tensor(outputs, dtype=torch.float64)).numpy()
 
 
-def run_batch(problem: Any, runs: RunSet, theta_p: np.ndarray, n_jobs: int = 1,
-              executor: Any | None = None) -> int:
+def run_batch(problem: Problem, runs: RunSet, theta_p: np.ndarray, n_jobs: int = 1,
+              executor: Any | None = None) -> tuple[int, np.ndarray]:
     """Evaluate `B x P` physical parameters, add the successful runs to ``runs``.
 
     Returns:
-        The number of new model runs made (store hits excluded).
+        ``(n_new, outputs)``: the number of new model runs made (store hits excluded) and the
+        `B x L x n` strains [µε] at the measured readings, row by row (NaN where a run failed).
 
     Raises:
         ValueError: when ``n_jobs != 1`` or an executor is asked for a problem without store.
     """
     if theta_p.shape[0] == 0:
-        return 0
+        return 0, np.zeros((0, *tuple(problem.y.shape)))
     theta_p = canonical_theta(theta_p)  # as the store keys it: a rerun sees the same values
     store, model = getattr(problem, "store", None), problem.model
     if n_jobs == 1 and executor is None and all(
@@ -95,11 +103,13 @@ def run_batch(problem: Any, runs: RunSet, theta_p: np.ndarray, n_jobs: int = 1,
     if errors:
         warnings.warn(f"method='emulator': {len(errors)} model runs failed and are left out: "
                       + "; ".join(e.splitlines()[0] for e in errors), RuntimeWarning, stacklevel=3)
-    runs.add(theta_p[ok], measured(problem, outputs[ok]))
-    return new
+    at = np.full((theta_p.shape[0], *tuple(problem.y.shape)), np.nan)
+    at[ok] = measured(problem, outputs[ok])
+    runs.add(theta_p[ok], at[ok])
+    return new, at
 
 
-def _through_problem(problem: Any, theta_p: np.ndarray) -> tuple[np.ndarray, int, list[str]]:
+def _through_problem(problem: Problem, theta_p: np.ndarray) -> tuple[np.ndarray, int, list[str]]:
     """Outputs `B x L_model x n_model` of rows evaluated one by one through the problem (whose
     cache keeps them); a run that raises or returns non-finite strains gives NaN."""
     before = int(problem.n_model_evaluations)
