@@ -49,6 +49,13 @@ def test_a_clean_fit_gets_neither_check_warning() -> None:
     assert not {"NOISE MODEL", "PRIOR BOUND"} & set(_tags(post)), post.warnings
 
 
+def test_the_same_data_with_sigma_m_inferred_get_no_noise_warning() -> None:
+    post = _emcee(bending_problem(sigma_m_data=0.005, sigma_m=torchshm.Uniform(0.0, 0.2)))
+    assert not {"NOISE MODEL", "PRIOR BOUND"} & set(_tags(post)), post.warnings
+    assert 0.5 < post.diagnostics["noise_scatter_ratio"] < 2.0
+    assert 0.003 < post.summary()["sigma_m"].mean < 0.007  # the data's 0.005
+
+
 def test_a_modulus_at_its_prior_bound_is_flagged_and_an_interior_one_is_not() -> None:
     rng = np.random.default_rng(0)
     sigma_a = rng.gamma(20.0, 0.05, 4000)

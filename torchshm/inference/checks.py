@@ -113,7 +113,8 @@ def bound_shares(post: Posterior) -> dict[tuple[str, str], tuple[float, float]]:
 
     A flat posterior puts ``EDGE`` (2 %) there, a well-identified interior one about 0. A
     range with one infinite end is measured on the plausible range's width. The lower bound 0
-    of a discrepancy scale ``sigma_a`` is left out: no model error is a legitimate answer.
+    of a scale (``sigma_a``, an inferred ``sigma_m`` or ``sigma_e``) is left out: no model
+    error, or no noise of that kind, is a legitimate answer.
 
     Returns:
         ``(name, "lower" | "upper") -> (share, bound)`` for every finite bound checked.
@@ -128,11 +129,16 @@ def bound_shares(post: Posterior) -> dict[tuple[str, str], tuple[float, float]]:
         lo, hi = (float(v) for v in hard[i])
         width = hi - lo if math.isfinite(hi - lo) else float(plausible[i, 1] - plausible[i, 0])
         edge, x = EDGE * width, samples[:, i]
-        if math.isfinite(lo) and not (statistical_base(name) == "sigma_a" and lo == 0.0):
+        if math.isfinite(lo) and not (_is_scale(name) and lo == 0.0):
             out[(name, "lower")] = (float(np.mean(x <= lo + edge)), lo)
         if math.isfinite(hi):
             out[(name, "upper")] = (float(np.mean(x >= hi - edge)), hi)
     return out
+
+
+def _is_scale(name: str) -> bool:
+    """Whether ``name`` is a discrepancy scale or an inferred noise level."""
+    return statistical_base(name) == "sigma_a" or name in ("sigma_m", "sigma_e")
 
 
 def bound_line(name: str, end: str, bound: float, share: float) -> str:

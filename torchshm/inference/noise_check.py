@@ -122,7 +122,7 @@ def _statistics(problem: Any, draw: np.ndarray, outputs: np.ndarray) -> tuple[fl
     row = torch.as_tensor(draw, dtype=torch.float64)[None, :]
     eta = problem.at_measured(torch.as_tensor(outputs)[None])[0]  # L x n
     sigma_a, length = problem.split.discrepancy(row)
-    sigma_m = _sigma_m(problem, row)
+    sigma_m, e_scale = _noise_levels(problem, row)
     y = torch.as_tensor(np.asarray(problem.measurements.y, dtype=np.float64))
     chi2 = count = diff = pred = m = mult = total = 0.0
     for block in problem.blocks:
@@ -132,7 +132,7 @@ def _statistics(problem: Any, draw: np.ndarray, outputs: np.ndarray) -> tuple[fl
         idx, x = points[keep], block.x[keep]
         yb, eb = y[block.loads][:, idx], eta[block.loads][:, idx]  # L_b x n_b
         m2 = sigma_m**2 * eb.square()
-        noise = (m2 + block.sigma_e**2)[None]  # 1 x L_b x n_b
+        noise = (m2 + (block.sigma_e * e_scale) ** 2)[None]  # 1 x L_b x n_b
         ell = torch.ones(1, dtype=torch.float64) if length is None else length[:, block.group]
         cov = covariance(x, problem.kernel, sigma_a[:, block.group], ell, noise)[0]  # L_b x n_b x n_b
         chol, failed = cholesky_with_jitter(cov)
@@ -151,19 +151,21 @@ def _statistics(problem: Any, draw: np.ndarray, outputs: np.ndarray) -> tuple[fl
     return chi2, max(count, 1), diff, pred, m, mult / total if total > 0 else 0.0
 
 
-def _sigma_m(problem: Any, row: torch.Tensor) -> float:
-    """The multiplicative model error of the draw: its column when inferred, else the fixed one."""
-    if "sigma_m" in getattr(problem, "names", ()):
-        return float(row[0, list(problem.names).index("sigma_m")])
-    return float(problem.sigma_m)
+def _noise_levels(problem: Any, row: torch.Tensor) -> tuple[float, float]:
+    """``(sigma_m, factor on every block's sigma_e)`` of one draw: inferred or fixed."""
+    if hasattr(problem, "noise_of"):
+        sigma_m, _, _, scale = problem.noise_of(row)
+        return float(np.asarray(sigma_m).reshape(-1)[0]), 1.0 if scale is None else float(scale[0])
+    return float(problem.sigma_m), 1.0
 
 
 def _line(problem: Any, direction: int, chi2: float, scatter: float, n: int, share: float,
           runs: int) -> str:
     """The ``NOISE MODEL`` warning: the noise model too large (``direction < 0``) or too small."""
     sigma_m, sigma_e = getattr(problem, "sigma_m", None), getattr(problem, "sigma_e", None)
-    assumed = f"sigma_m = {sigma_m:g}" if isinstance(sigma_m, (int, float)) else "sigma_m"
-    assumed += f", sigma_e = {sigma_e:g} µε" if isinstance(sigma_e, (int, float)) else ", sigma_e"
+    assumed = f"sigma_m = {sigma_m:g}" if isinstance(sigma_m, (int, float)) else "sigma_m (inferred)"
+    assumed += (f", sigma_e = {sigma_e:g} µε" if isinstance(sigma_e, (int, float)) else
+                ", sigma_e per line" if isinstance(sigma_e, dict) else ", sigma_e (inferred)")
     scatter_text = "" if not math.isfinite(scatter) else f", neighbour scatter ratio {scatter:.3g}"
     head = (f"NOISE MODEL: residuals of the measured strains at {runs} posterior draws give "
             f"chi²/n = {chi2:.3g}{scatter_text} (n = {n}; both 1 if the noise model held)")
