@@ -37,13 +37,19 @@ def test_vbmc_run_writes_every_output(cli, tmp_path: Path) -> None:
 
     post = torchshm.load_posterior(run / "posterior.nc")
     assert post.method == "vbmc" and post.names == ["E_c", "log10_K_r", "sigma_a", "length"]
-    with open(run / "summary.csv") as f:
-        rows = list(csv.DictReader(f))
+    with open(run / "summary.csv") as f:  # warnings first, as '#' lines
+        rows = list(csv.DictReader(line for line in f if not line.startswith("#")))
     assert [r["name"] for r in rows] == post.names
     assert all(float(r["q2.5"]) < float(r["mean"]) < float(r["q97.5"]) for r in rows)
     assert "E_c" in result.stdout and "log10_K_r" in result.stdout  # the summary is printed
 
     record = json.loads((run / "run.json").read_text())
+    # 20 evaluations cannot converge: the result says so wherever a user looks
+    assert record["warnings"][0].startswith("NOT CONVERGED: VBMC stopped") and post.warnings == record["warnings"]
+    assert (run / "summary.csv").read_text().startswith("# NOT CONVERGED: ")
+    printed = result.stdout.splitlines()
+    head = next(i for i, line in enumerate(printed) if line.startswith("Posterior (vbmc"))
+    assert printed[head - len(post.warnings)].startswith("NOT CONVERGED: ")  # printed first
     assert record["n_model_evaluations"] > 0 and record["log_evidence"] is not None
     assert record["settings"]["data"]["resolution"] == 4.0
     assert [p["load"] for p in record["predictive"]] == [70.4]

@@ -82,3 +82,17 @@ def test_jobs_are_named_by_the_overrides_that_differ(tmp_path: Path) -> None:
 def test_empty_sweep_folder(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="no job folder"):
         compare_runs(tmp_path)
+
+
+def test_the_warnings_of_each_job_are_named_in_the_table(tmp_path: Path) -> None:
+    lines = ["NOT CONVERGED: VBMC stopped after 40 evaluations ...",
+             "PRIOR BOUND: E_c piles at its upper prior bound 60: 41% of the posterior ..."]
+    job(tmp_path, "seed=0", {**record(-100.0, 0.1, [1.0], 40), "converged": False, "warnings": lines})
+    job(tmp_path, "seed=1", record(-100.5, 0.1, [1.0], 80))
+    files = compare_runs(tmp_path)
+    with open(files["csv"]) as f:
+        rows = {r["job"]: r for r in csv.DictReader(f)}
+    assert rows["seed=0"]["warnings"] == "NOT CONVERGED; PRIOR BOUND (E_c upper)"
+    assert rows["seed=1"]["warnings"] == ""
+    text = files["markdown"].read_text()
+    assert "| 40 | False | NOT CONVERGED; PRIOR BOUND (E_c upper) | ok |" in text

@@ -28,6 +28,7 @@ from omegaconf import DictConfig
 
 from torchshm.cli.errors import BadInput, bad_input_in_job, one_line, report_bad_input
 from torchshm.config import CONF_DIR, CONFIG_NAME, normalize_overrides, register_configs, to_settings
+from torchshm.inference.peer_errors import PeerNumericalError
 from torchshm.inference.target import ModelRunsFailed
 from torchshm.storage.interrupt import EXIT_SIGINT, resumable, store_of
 
@@ -56,7 +57,7 @@ def _app(cfg: DictConfig) -> float | None:
     with resumable(PROG, store_of(job.problem), how="run the same command again"):
         try:
             result = run_job(job, out_dir)
-        except ModelRunsFailed as err:  # no model run finished: one line, as for bad input
+        except (ModelRunsFailed, PeerNumericalError) as err:  # one line, as for bad input
             raise BadInput(one_line(err)) from err
     post = result.posterior
     log.info("%d model evaluations in %.1f s; outputs in %s",

@@ -227,6 +227,8 @@ def run_job(job: PreparedJob, out_dir: Path) -> JobResult:
         result.files.update(files)
     result.wall_time_s = time.perf_counter() - job.t0
     result.files["run"] = outputs.write_run_record(result, settings)
+    for line in post.warnings:  # printed first with the summary; repeated as the last lines
+        log.warning(line)
     return result
 
 

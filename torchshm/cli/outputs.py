@@ -1,12 +1,15 @@
 """Files a ``torchshm-identify`` run writes into its run folder.
 
 - ``posterior.nc``: the posterior (``torchshm.load_posterior`` reads it back);
-- ``summary.csv``: mean, sd and 95 % interval per parameter (also printed);
-- ``corner.png``: 1-D and 2-D marginals, the truth marked when the data carry it;
+- ``summary.csv``: mean, sd and 95 % interval per parameter (also printed); the posterior's
+  warnings (``post.warnings``: not converged, mass at a prior bound, noise model) come first
+  as ``#`` lines, only when there are any;
+- ``corner.png``: 1-D and 2-D marginals, the truth marked when the data carry it; a red title
+  names the warnings;
 - ``elbo.png`` (VBMC): the ELBO per iteration; ``trace.png``: mean and 95 % interval of each
   parameter against evaluations, from ``post.history``;
 - ``predictive.csv`` / ``predictive.png``: scores and plot of the held-out load cases;
-- ``run.json``: wall time, evaluations, evidence, convergence and the settings;
+- ``run.json``: wall time, evaluations, evidence, convergence, warnings and the settings;
 - ``tb/``: TensorBoard events, written during inference by :func:`torchshm.identify`.
 """
 
@@ -77,7 +80,8 @@ def write_posterior(post: Posterior, out_dir: Path, attrs: Mapping[str, Any],
     truths = truths_of(attrs, list(post.names))
     log.info("drawing the corner plot, ELBO and trace figures")
     files["corner"] = plots.corner_plot({post.method: post.samples}, post.names,
-                                        out_dir / "corner.png", truths, labels=labels)
+                                        out_dir / "corner.png", truths, labels=labels,
+                                        warnings=post.warnings)
     history = post.history or {}
     if "elbo" in history and len(history["elbo"]):
         files["elbo"] = plots.elbo_plot(history, out_dir / "elbo.png")
@@ -137,6 +141,7 @@ def write_run_record(result: Any, settings: Any) -> Path:
         "log_evidence": post.log_evidence,
         "log_evidence_sd": post.log_evidence_sd,
         "converged": bool(post.converged),
+        "warnings": list(post.warnings),
         "summary": post.summary().as_dict(),
         "predictive": result.predictive,
         "diagnostics": post.diagnostics,

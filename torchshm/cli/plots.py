@@ -29,7 +29,7 @@ def _pyplot():  # type: ignore[no-untyped-def]
 def corner_plot(
     samples: Mapping[str, np.ndarray], names: Sequence[str], path: Path,
     truths: Mapping[str, float] | None = None, max_points: int = 20_000,
-    labels: Mapping[str, str] | None = None,
+    labels: Mapping[str, str] | None = None, warnings: Sequence[str] = (),
 ) -> Path:
     """1-D and 2-D marginals of one or more posteriors, overlaid (paper, Fig. 4).
 
@@ -40,6 +40,8 @@ def corner_plot(
         truths: name -> true value, marked with lines where known.
         max_points: at most this many samples of each posterior are drawn (evenly thinned).
         labels: axis label per name (default: the name).
+        warnings: the posterior's warning lines; their tags (``NOT CONVERGED``, ``PRIOR BOUND
+            (E_c upper)``, ...) become a red title.
     """
     import corner
 
@@ -62,9 +64,22 @@ def corner_plot(
     if truths and any(t is not None for t in truth_row):
         handles.append(plt.Line2D([], [], color="k", label="truth"))
     fig.legend(handles=handles, loc="upper right", frameon=False)
+    _warning_title(fig, warnings)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def _warning_title(fig: object, warnings: Sequence[str]) -> None:
+    """A red title naming the warnings, top left above the plots (nothing without warnings)."""
+    from textwrap import fill
+
+    from torchshm.inference.checks import warning_tags
+
+    tags = warning_tags(list(warnings))
+    if tags:
+        fig.text(0.02, 0.995, fill(f"WARNING: {tags}", 70), color="red", fontsize="large",  # type: ignore[attr-defined]
+                 fontweight="bold", ha="left", va="top")
 
 
 def _common_ranges(sets: list[np.ndarray], truths: Sequence[float | None]) -> list[tuple[float, float]]:

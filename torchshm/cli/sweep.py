@@ -7,7 +7,8 @@ Hydra callback :class:`SweepComparison` (listed in ``conf/config.yaml`` under
 - ``comparison.csv`` / ``comparison.md``: one row per job (named by the overrides that set it
   apart from the other jobs, e.g. ``kernel=matern52``): method, ELBO ± sd, log10 Bayes
   factor of the best job over this one with Jeffreys' label (paper, Tables 1 and 9), mean
-  hold-out coverage of the 95 % predictive interval, forward-model runs, convergence, time;
+  hold-out coverage of the 95 % predictive interval, forward-model runs, convergence, the
+  posterior's warnings (their tags: ``NOT CONVERGED``, ``PRIOR BOUND (E_c upper)``, ...), time;
 - ``bayes_factors.csv``: every pair of jobs with an ELBO (:func:`torchshm.bayes_factors`).
 
 A job without ``run.json`` (it failed) is listed as failed.
@@ -25,11 +26,13 @@ from typing import Any
 from hydra.experimental.callback import Callback
 from omegaconf import DictConfig
 
+from torchshm.inference.checks import warning_tags
+
 log = logging.getLogger(__name__)
 
 #: columns of comparison.csv
 COLUMNS = ("job", "folder", "method", "elbo", "elbo_sd", "log10_B_best_over_job", "jeffreys",
-           "holdout_coverage", "model_runs", "converged", "wall_time_s", "status")
+           "holdout_coverage", "model_runs", "converged", "warnings", "wall_time_s", "status")
 
 
 def job_overrides(folder: Path) -> list[str]:
@@ -71,6 +74,7 @@ def job_row(folder: Path, name: str | None = None) -> dict[str, Any]:
         holdout_coverage=sum(coverage) / len(coverage) if coverage else None,
         model_runs=record.get("n_model_evaluations"),
         converged=record.get("converged"),
+        warnings=warning_tags(record.get("warnings") or []),
         wall_time_s=record.get("wall_time_s"),
         status="ok",
     )
@@ -114,8 +118,8 @@ def compare_runs(sweep_dir: Path) -> dict[str, Path]:
 
 def _markdown(rows: list[dict[str, Any]]) -> str:
     head = ("| job | method | ELBO [nats] | log10 B (best / job) | Jeffreys | hold-out coverage "
-            "| model runs | converged | status |")
-    lines = [head, "|---" * 9 + "|"]
+            "| model runs | converged | warnings | status |")
+    lines = [head, "|---" * 10 + "|"]
     for r in rows:
         elbo = "" if r["elbo"] in ("", None) else f"{r['elbo']:.2f}"
         if elbo and r["elbo_sd"] not in ("", None):
@@ -123,7 +127,8 @@ def _markdown(rows: list[dict[str, Any]]) -> str:
         bf = "" if r["log10_B_best_over_job"] == "" else f"{r['log10_B_best_over_job']:.2f}"
         cov = "" if r["holdout_coverage"] in ("", None) else f"{100 * r['holdout_coverage']:.1f} %"
         lines.append(f"| {r['job']} | {r['method']} | {elbo} | {bf} | {r['jeffreys']} | {cov} "
-                     f"| {_cell(r['model_runs'])} | {_cell(r['converged'])} | {r['status']} |")
+                     f"| {_cell(r['model_runs'])} | {_cell(r['converged'])} | {r['warnings']} "
+                     f"| {r['status']} |")
     return "\n".join(lines) + "\n"
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from torchshm.inference.checks import check_fit
 from torchshm.inference.posterior import Posterior
 
 if TYPE_CHECKING:
@@ -38,6 +39,8 @@ def identify(
 
     Returns:
         The :class:`Posterior`. A run that did not converge has ``converged = False`` and warns.
+        :func:`~torchshm.inference.checks.check_fit` then adds ``post.warnings`` (not converged,
+        mass at a prior bound, noise model contradicted by the data; no model run).
 
     Raises:
         ValueError: for an unknown method.
@@ -48,7 +51,7 @@ def identify(
     from torchshm.storage.interrupt import resumable, store_of
 
     with resumable(f"identify ({method})", store_of(problem)):
-        return _run(problem, method, seed, log_dir, options)
+        return check_fit(_run(problem, method, seed, log_dir, options))
 
 
 def _run(problem: Problem, method: str, seed: int, log_dir: str | Path | None,

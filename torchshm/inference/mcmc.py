@@ -19,6 +19,9 @@ import emcee
 import numpy as np
 
 from torchshm.forward.protocol import model_identity
+from torchshm.inference.peer_errors import (
+    NUMERICAL, PeerNumericalError, first_line, peer_of, where,
+)
 from torchshm.inference.posterior import Posterior
 from torchshm.inference.target import LogJointTarget
 from torchshm.inference.tensorboard import RunTrace, marginal_scalars
@@ -170,6 +173,16 @@ def run_emcee(
             if steps % max(1, log_every) == 0 or steps == n_steps:
                 n_calls = int(problem.n_model_evaluations) - calls_before
                 trace.log(_checkpoint_row(backend, names, window, n_calls))
+    except NUMERICAL as err:
+        usage = type(err) is ValueError and "condition" not in str(err)  # refused by emcee
+        if peer_of(err) is None or usage:
+            raise
+        raise PeerNumericalError(
+            f"emcee failed ({first_line(err)}, at {where(err)}) after {int(backend.iteration)} "
+            f"steps: the walkers' positions are degenerate (they must be linearly independent: "
+            f"no parameter may be the same for every walker) or their log joint is not finite; "
+            f"start the walkers afresh (another seed, a new backend_path) or check the priors"
+        ) from None
     finally:
         trace.close()
     return _posterior(problem, backend, trace, target, calls_before, burn, thin, {

@@ -3,7 +3,8 @@
 Groups:
 
 - ``posterior``: one variable per parameter, dims ``(chain, draw)``; attributes: method, names,
-  convergence, evidence, model evaluations, priors (JSON) and diagnostics (JSON).
+  convergence, evidence, model evaluations, priors (JSON), diagnostics (JSON) and warnings
+  (JSON list of lines; a file written before warnings existed reads as none).
 - ``sample_stats``: per-sample statistics, dims ``(chain, draw)`` (emcee: ``lp``).
 - ``observed_data``: the measurements of the problem, ``y`` with dims ``(load, x)`` (for `n x d`
   coordinates: ``y(load, point)`` and ``x(point, axis)``).
@@ -50,6 +51,7 @@ def _posterior_group(post: Posterior) -> xr.Dataset:
         "log_evidence_sd": np.nan if post.log_evidence_sd is None else float(post.log_evidence_sd),
         "priors": json.dumps(priors_to_json(post.priors)),
         "diagnostics": json.dumps(post.diagnostics, default=float),
+        "warnings": json.dumps([str(w) for w in post.warnings]),
     }
     return xr.Dataset(data, attrs=attrs)
 
@@ -194,7 +196,8 @@ def load_posterior(path: str | Path) -> Posterior:
         priors=priors_from_json(json.loads(ds.attrs["priors"])), history=history,
         sample_stats=sample_stats,
         variational=None if vp_ds is None else _rebuild_variational(vp_ds),
-        n_chains=n_chain, problem=None,
+        n_chains=n_chain, warnings=[str(w) for w in json.loads(ds.attrs.get("warnings", "[]"))],
+        problem=None,
     )
 
 

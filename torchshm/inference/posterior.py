@@ -9,6 +9,7 @@ netCDF file (see :mod:`torchshm.inference.netcdf`).
 from __future__ import annotations
 
 import copy
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -55,6 +56,11 @@ class Posterior:
             ``lp``, the log joint of each sample).
         variational: the PyVBMC ``VariationalPosterior`` (VBMC only), used by :meth:`log_pdf`.
         n_chains: chains behind ``samples`` (emcee: walkers; VBMC: 1).
+        warnings: one line per problem found with the result, each naming the cause and the
+            fix: ``"NOT CONVERGED: ..."`` for a run that did not converge, and the checks of
+            :mod:`torchshm.inference.checks` (posterior mass at a prior bound, noise model
+            contradicted by the data). Empty for a clean run. Printed first by
+            :meth:`summary` and ``str(post)``, saved with the posterior file.
         problem: the :class:`~torchshm.Problem` it came from (not saved; None after loading).
     """
 
@@ -71,6 +77,7 @@ class Posterior:
     sample_stats: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     variational: VariationalPosterior | None = field(default=None, repr=False)
     n_chains: int = 1
+    warnings: list[str] = field(default_factory=list)
     problem: Problem | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -139,8 +146,9 @@ class Posterior:
         return values.reshape(theta.shape[:-1])
 
     def summary(self) -> PosteriorSummary:
-        """Mean, sd and 95 % equal-tailed interval of each parameter, from :attr:`samples`."""
-        return summarize(self.names, self.samples, self.n_chains)
+        """Mean, sd and 95 % equal-tailed interval of each parameter, from :attr:`samples`;
+        :attr:`warnings` are its notes, the first lines of its printed form."""
+        return summarize(self.names, self.samples, self.n_chains, tuple(self.warnings))
 
     def to_arviz(self) -> az.InferenceData:
         """The posterior as an ArviZ ``InferenceData``.
@@ -148,7 +156,8 @@ class Posterior:
         Groups: ``posterior`` (one variable per parameter, dims ``chain, draw``: emcee's walkers
         are its chains, VBMC's draws one chain), ``sample_stats`` (e.g. emcee's ``lp``) and,
         when the problem is attached, ``observed_data`` (``y`` [µε], dims ``load, x``). The
-        attributes hold the method, the evidence and the convergence flag. Use it with ArviZ's
+        attributes hold the method, the evidence, the convergence flag and the warnings (a JSON
+        list). Use it with ArviZ's
         own functions (``az.summary``, ``az.ess``, ``az.rhat``, ``az.plot_trace``).
         """
         import arviz as az
@@ -161,7 +170,8 @@ class Posterior:
         coords = None if meas is None else {"load": np.asarray(meas.loads, dtype=np.float64),
                                              "x": np.asarray(meas.x, dtype=np.float64)}
         attrs = {"method": self.method, "converged": int(self.converged),
-                 "n_model_evaluations": int(self.n_model_evaluations)}
+                 "n_model_evaluations": int(self.n_model_evaluations),
+                 "warnings": json.dumps(list(self.warnings))}
         if self.log_evidence is not None:
             attrs["log_evidence"] = float(self.log_evidence)
         idata = az.from_dict(
@@ -188,4 +198,4 @@ class Posterior:
             f"Posterior ({self.method}, {state}, {self.n_model_evaluations} model evaluations, "
             f"{ev})"
         )
-        return f"{head}\n{self.summary()}"
+        return "\n".join([*self.warnings, head, self.summary().table()])

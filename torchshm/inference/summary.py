@@ -34,9 +34,12 @@ class PosteriorSummary:
 
     Attributes:
         rows: one :class:`SummaryRow` per inferred parameter, in the posterior's order.
+        notes: one-line warnings of the run (:attr:`Posterior.warnings`), printed before the
+            table and written as ``#`` comment lines at the top of the CSV.
     """
 
     rows: tuple[SummaryRow, ...]
+    notes: tuple[str, ...] = ()
 
     COLUMNS = ("name", "mean", "sd", "q2.5", "q97.5")
     CHAIN_COLUMNS = ("ess_bulk", "r_hat")
@@ -55,9 +58,12 @@ class PosteriorSummary:
 
     def to_csv(self, path: str | Path | None = None) -> str:
         """The table as CSV text (header ``name,mean,sd,q2.5,q97.5`` and, with several chains,
-        ``ess_bulk,r_hat``), also written to ``path``."""
+        ``ess_bulk,r_hat``), also written to ``path``. Each note comes first as a ``# `` line
+        (read the file with ``pandas.read_csv(path, comment="#")``); without notes there are
+        none."""
         chains = self.has_chain_diagnostics
-        lines = [",".join(self.COLUMNS + (self.CHAIN_COLUMNS if chains else ()))]
+        lines = [f"# {note}" for note in self.notes]
+        lines += [",".join(self.COLUMNS + (self.CHAIN_COLUMNS if chains else ()))]
         lines += [
             f"{r.name},{r.mean:.10g},{r.sd:.10g},{r.q2_5:.10g},{r.q97_5:.10g}"
             + (f",{r.ess_bulk:.10g},{r.r_hat:.10g}" if chains else "")
@@ -78,6 +84,10 @@ class PosteriorSummary:
         }
 
     def __str__(self) -> str:
+        return "\n".join([*self.notes, self.table()])
+
+    def table(self) -> str:
+        """The printed table alone, without the notes."""
         width = max([len("parameter")] + [len(r.name) for r in self.rows])
         chains = self.has_chain_diagnostics
         head = f"{'parameter':<{width}} {'mean':>11} {'sd':>11} {'q2.5':>11} {'q97.5':>11}"
@@ -90,11 +100,13 @@ class PosteriorSummary:
         return "\n".join([head, *body])
 
 
-def summarize(names: list[str], samples: np.ndarray, n_chains: int = 1) -> PosteriorSummary:
+def summarize(names: list[str], samples: np.ndarray, n_chains: int = 1,
+              notes: tuple[str, ...] = ()) -> PosteriorSummary:
     """Mean, sd and 2.5 % / 97.5 % quantiles of each column of ``samples`` (`S x D`).
 
     With ``n_chains > 1`` (``samples`` step-major, see :func:`as_chains`), also ArviZ's bulk
-    ESS and rank-normalised split R-hat of each parameter.
+    ESS and rank-normalised split R-hat of each parameter. ``notes`` (one-line warnings) are
+    carried into the summary, printed before its table.
     """
     samples = np.asarray(samples, dtype=np.float64)
     mean = samples.mean(axis=0)
@@ -112,7 +124,7 @@ def summarize(names: list[str], samples: np.ndarray, n_chains: int = 1) -> Poste
         SummaryRow(n, float(m), float(s), float(a), float(b), e, r)
         for n, m, s, a, b, e, r in zip(names, mean, sd, lo, hi, ess, rhat)
     )
-    return PosteriorSummary(rows)
+    return PosteriorSummary(rows, tuple(str(n) for n in notes))
 
 
 def as_chains(values: np.ndarray, n_chains: int) -> np.ndarray:

@@ -17,6 +17,9 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 from pyvbmc import VBMC
 
+from torchshm.inference.peer_errors import (
+    NUMERICAL, PeerNumericalError, first_line, log_joint_range, peer_of, where,
+)
 from torchshm.inference.posterior import Posterior
 from torchshm.inference.start import StartSettings, find_start, vbmc_budget, vbmc_start
 from torchshm.inference.target import LogJointTarget, point_log_for
@@ -28,6 +31,9 @@ if TYPE_CHECKING:
 
 #: samples drawn from the variational posterior per iteration for the trace's intervals
 TRACE_SAMPLES = 20_000
+#: GP noise floor (``tol_gp_noise``, in log-joint units) of the restart after a numerical
+#: failure inside PyVBMC (its default is sqrt(1e-5) = 0.003)
+RESTART_GP_NOISE = 0.1
 
 
 class IterationTrace:
@@ -151,22 +157,77 @@ def run_vbmc(
     trace = RunTrace(log_dir, step_key="iteration")
     n_pre = 0 if precomputed is None else int(precomputed[0].shape[0])
     iterations = IterationTrace(trace, names, n_pre, seed)
-    vbmc = VBMC(
-        iterations.wrap(target), x0, hard[:, 0], hard[:, 1], plausible[:, 0], plausible[:, 1],
-        options=_pyvbmc_options(options, 0 if x0 is None else x0.shape[0], n_initial, len(names)),
-        seed=seed,
-        precomputed_evaluations=precomputed, initialization_cost=n_search,
-    )
-    iterations.vbmc = vbmc
+    vbmc_options = _pyvbmc_options(options, 0 if x0 is None else x0.shape[0], n_initial, len(names))
     try:
-        vp, results = vbmc.optimize()
+        vbmc = VBMC(
+            iterations.wrap(target), x0, hard[:, 0], hard[:, 1], plausible[:, 0], plausible[:, 1],
+            options=vbmc_options, seed=seed,
+            precomputed_evaluations=precomputed, initialization_cost=n_search,
+        )
+        iterations.vbmc = vbmc
+        vp, results, retried = _optimize(vbmc, iterations, target, first, settings, hard, plausible,
+                                         vbmc_options, seed, n_search)
         iterations.poll()
     finally:
         trace.close()
     return _posterior(problem, vp, results, trace, target, calls_before, n_samples, seed, {
         "n_reused_points": n_reused, "n_precomputed": n_pre, "n_start_evaluations": n_search,
-        "wall_time_s": time.perf_counter() - t0,
+        "n_numerical_restarts": retried, "wall_time_s": time.perf_counter() - t0,
     })
+
+
+def _optimize(
+    vbmc: VBMC, iterations: IterationTrace, target: LogJointTarget, first: np.ndarray,
+    settings: StartSettings, hard: np.ndarray, plausible: np.ndarray, options: dict[str, Any],
+    seed: int, n_search: int,
+) -> tuple[VariationalPosterior, dict[str, Any], int]:
+    """``vbmc.optimize()``, restarted once after a numerical failure inside PyVBMC.
+
+    The restart hands every point evaluated so far to a new PyVBMC run as precomputed
+    evaluations (no model run is repeated), with another seed and a GP noise floor of
+    :data:`RESTART_GP_NOISE` (``tol_gp_noise``), which keeps the GP's training covariance
+    invertible when the log joint spans a huge range (nearly noiseless data). A second failure
+    raises :class:`PeerNumericalError` naming the cause and what to change.
+
+    Returns:
+        ``(vp, results, restarts)``.
+    """
+    try:
+        vp, results = vbmc.optimize()
+        return vp, results, 0
+    except NUMERICAL as err:
+        if peer_of(err) is None:
+            raise
+        first_error = err
+    iterations.poll()
+    warnings.warn(f"VBMC: PyVBMC failed numerically ({first_line(first_error)}, at "
+                  f"{where(first_error)}); restarting once from the {len(target.y)} points "
+                  f"evaluated so far with tol_gp_noise={RESTART_GP_NOISE:g}",
+                  RuntimeWarning, stacklevel=4)
+    n_initial = int(options.get("fun_eval_start", 10 * -(-(hard.shape[0] + 1) // 10)))
+    x0, precomputed = vbmc_start(target, first, n_initial, float(settings.keep_threshold or 0))
+    restart_options = {**options, "tol_gp_noise": max(float(options.get("tol_gp_noise", 0.0)),
+                                                      RESTART_GP_NOISE)}
+    iterations.n_precomputed = 0 if precomputed is None else int(precomputed[0].shape[0])
+    iterations.n_logged = 0
+    try:
+        vbmc = VBMC(iterations.wrap(target), x0, hard[:, 0], hard[:, 1], plausible[:, 0],
+                    plausible[:, 1], options=restart_options, seed=seed + 1,
+                    precomputed_evaluations=precomputed, initialization_cost=n_search)
+        iterations.vbmc = vbmc
+        vp, results = vbmc.optimize()
+    except NUMERICAL as err:
+        if peer_of(err) is None:
+            raise
+        raise PeerNumericalError(
+            f"VBMC: PyVBMC's Gaussian process failed numerically twice ({first_line(first_error)} "
+            f"at {where(first_error)}; then {first_line(err)} at {where(err)}), after "
+            f"{log_joint_range(target.y)}: the log joint is too peaked for its GP, typically "
+            "nearly noiseless data with sigma_m = 0. Change: give sigma_m > 0 (or a prior), use "
+            "method='emulator' or 'emcee', or narrow the plausible bounds around the mode; "
+            "finished model runs are in the store and are not repeated"
+        ) from None
+    return vp, results, 1
 
 
 def _reuse_previous_points(target: LogJointTarget) -> int:

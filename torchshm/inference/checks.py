@@ -1,0 +1,169 @@
+"""Checks of a finished fit, run by :func:`torchshm.identify` after every method.
+
+:func:`check_fit` adds to ``post.warnings`` one line per problem, each naming the cause and the
+fix, and to ``post.diagnostics`` the numbers behind them. No check runs the forward model.
+
+- ``NOT CONVERGED``: the method's own convergence test failed (what it reported, what to raise).
+- ``FAILED RUNS`` / ``STUCK WALKERS``: model runs that failed, emcee walkers that barely moved.
+- ``PRIOR BOUND``: posterior mass piled at a finite hard bound of a parameter
+  (:func:`bound_shares`).
+- ``NOISE MODEL``: the measured strains contradict the assumed noise levels
+  (:mod:`torchshm.inference.noise_check`).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from torchshm.inference.noise_check import noise_check
+from torchshm.problem.parameters import statistical_base
+
+if TYPE_CHECKING:
+    from torchshm.inference.posterior import Posterior
+
+#: share of the hard range at each finite end inspected by the bound check
+EDGE = 0.02
+#: warn when the posterior puts this many times what a flat posterior would (``EDGE``) there
+BOUND_FACTOR = 3.0
+
+
+def check_fit(post: Posterior) -> Posterior:
+    """Add the warnings and diagnostics of every check to ``post`` (in place); returns it.
+
+    A line already in ``post.warnings`` is not added twice, so checking again is harmless.
+    """
+    lines = [convergence_line(post), *run_lines(post)]
+    shares = bound_shares(post)
+    for (name, end), (share, bound) in shares.items():
+        post.diagnostics[f"bound_share/{name}/{end}"] = share
+        if share >= BOUND_FACTOR * EDGE:
+            lines.append(bound_line(name, end, bound, share))
+    try:
+        noise_line, numbers = noise_check(post)
+    except Exception as err:  # noqa: BLE001 - a check must never cost a finished posterior
+        warnings.warn(f"the noise-model check was skipped: {type(err).__name__}: {err}",
+                      RuntimeWarning, stacklevel=3)
+        noise_line, numbers = None, {}
+    post.diagnostics.update(numbers)
+    lines.append(noise_line)
+    for line in lines:
+        if line and line not in post.warnings:
+            post.warnings.append(line)
+    return post
+
+
+def convergence_line(post: Posterior) -> str | None:
+    """``"NOT CONVERGED: ..."`` with what the method reported and what to raise, or None."""
+    if post.converged:
+        return None
+    d = post.diagnostics
+    rerun = "rerun on the same store (finished model runs are reused)"
+    if post.method == "vbmc":
+        evals = int(d.get("vbmc_func_count", post.n_model_evaluations)) + int(
+            d.get("n_start_evaluations", 0))
+        reason = str(d.get("message", "")).strip().rstrip(".") or "no convergence"
+        return (f"NOT CONVERGED: VBMC stopped after {evals} evaluations before its stability "
+                f"test held ({reason}); the posterior and ELBO may be off: raise max_fun_evals "
+                f"(e.g. to {2 * int(evals)}) and {rerun}")
+    if post.method == "emcee":
+        n_over_tau, steps = float(d.get("n_over_tau", math.nan)), int(d.get("n_steps", 0))
+        if not math.isfinite(n_over_tau):
+            return (f"NOT CONVERGED: emcee's autocorrelation time could not be estimated from "
+                    f"{steps} steps (too short a chain): raise n_steps (e.g. to {4 * steps}); "
+                    "with backend_path the chain continues")
+        need = int(math.ceil(steps * 50.0 / max(n_over_tau, 1e-3) / 100.0) * 100)
+        return (f"NOT CONVERGED: emcee's chain after burn-in is {n_over_tau:.1f} "
+                f"autocorrelation times long (50 needed); the posterior may be off: raise "
+                f"n_steps (about {need}); with backend_path the chain continues")
+    if post.method == "emulator":
+        rounds = d.get("rounds") or [{}]
+        last = rounds[-1] if isinstance(rounds[-1], dict) else {}
+        tv = last.get("tv")
+        state = f"; last round TV {float(tv):.3f}" if isinstance(tv, (int, float)) else ""
+        return (f"NOT CONVERGED: method='emulator' used its budget ({post.n_model_evaluations} "
+                f"model runs, {d.get('n_rounds', len(rounds))} rounds{state}) before its stop "
+                f"rule held; the posterior may still move: raise max_model_evaluations and "
+                f"{rerun}")
+    return (f"NOT CONVERGED: method {post.method!r} reported no convergence: raise its budget "
+            f"and {rerun}")
+
+
+def run_lines(post: Posterior) -> list[str]:
+    """Failed model runs and stuck emcee walkers, as warning lines."""
+    d, out = post.diagnostics, []
+    failed = int(d.get("n_failed_evaluations", 0) or 0)
+    if failed:
+        out.append(f"FAILED RUNS: {failed} model runs failed and were "
+                   f"{'imputed the lowest log joint seen' if post.method == 'vbmc' else 'left out'}; "
+                   "see problem.failures() for their errors and fix the model or the bounds")
+    stuck = int(d.get("n_stuck_walkers", 0) or 0)
+    if stuck:
+        out.append(f"STUCK WALKERS: {stuck} of {d.get('n_walkers', '?')} emcee walkers barely "
+                   "moved (diagnostics['stuck_walkers']); their samples bias the posterior: run "
+                   "more steps or start the walkers elsewhere")
+    return out
+
+
+def bound_shares(post: Posterior) -> dict[tuple[str, str], tuple[float, float]]:
+    """Share of the samples in the outermost :data:`EDGE` of the hard range at each finite end.
+
+    A flat posterior puts ``EDGE`` (2 %) there, a well-identified interior one about 0. A
+    range with one infinite end is measured on the plausible range's width. The lower bound 0
+    of a scale (``sigma_a``, an inferred ``sigma_m`` or ``sigma_e``) is left out: no model
+    error, or no noise of that kind, is a legitimate answer.
+
+    Returns:
+        ``(name, "lower" | "upper") -> (share, bound)`` for every finite bound checked.
+    """
+    samples = np.asarray(post.samples, dtype=np.float64)
+    if samples.ndim != 2 or samples.shape[0] == 0:
+        return {}
+    prior = post.prior
+    hard, plausible = np.asarray(prior.hard_bounds), np.asarray(prior.plausible_bounds)
+    out: dict[tuple[str, str], tuple[float, float]] = {}
+    for i, name in enumerate(post.names):
+        lo, hi = (float(v) for v in hard[i])
+        width = hi - lo if math.isfinite(hi - lo) else float(plausible[i, 1] - plausible[i, 0])
+        edge, x = EDGE * width, samples[:, i]
+        if math.isfinite(lo) and not (_is_scale(name) and lo == 0.0):
+            out[(name, "lower")] = (float(np.mean(x <= lo + edge)), lo)
+        if math.isfinite(hi):
+            out[(name, "upper")] = (float(np.mean(x >= hi - edge)), hi)
+    return out
+
+
+def _is_scale(name: str) -> bool:
+    """Whether ``name`` is a discrepancy scale or an inferred noise level."""
+    return statistical_base(name) == "sigma_a" or name in ("sigma_m", "sigma_e")
+
+
+def bound_line(name: str, end: str, bound: float, share: float) -> str:
+    """The ``PRIOR BOUND`` warning of one parameter end."""
+    return (f"PRIOR BOUND: {name} piles at its {end} prior bound {bound:g}: {share:.0%} of the "
+            f"posterior lies in the outermost {EDGE:.0%} of its range (a flat posterior: "
+            f"{EDGE:.0%}). Causes: the data cannot tell values beyond apart (a saturating "
+            "parameter), the prior is too narrow, or the noise model is wrong. Fix: widen the "
+            "bound if values beyond are possible, else report the parameter as bounded, not "
+            "identified; a modulus at a bound: check the noise model (sigma_m, sigma_e) first")
+
+
+def warning_tags(lines: list[str] | tuple[str, ...], parameters: bool = True) -> str:
+    """Short form of warning lines for a table cell or a title: ``"NOT CONVERGED; PRIOR BOUND
+    (E_c upper)"``."""
+    tags: list[str] = []
+    for line in lines:
+        tag, _, rest = str(line).partition(":")
+        if parameters and tag == "PRIOR BOUND":
+            words = rest.split()
+            tag = f"{tag} ({words[0]} {words[4]})" if len(words) > 4 else tag
+        if tag not in tags:
+            tags.append(tag)
+    return "; ".join(tags)
+
+
+__all__ = ["BOUND_FACTOR", "EDGE", "bound_line", "bound_shares", "check_fit",
+           "convergence_line", "run_lines", "warning_tags"]
