@@ -74,6 +74,7 @@ class _Watchdog:
         self.owners: dict[Owner, int] = {}
         self.thread: threading.Thread | None = None
         self.wake = threading.Event()
+        self.fired = threading.Event()
 
     def add(self, owner: Owner) -> None:
         with self.lock:
@@ -98,6 +99,7 @@ class _Watchdog:
             if gone is not None:
                 logger.warning("process %d that owns this worker is gone; stopping its runs and "
                                "this worker (pid %d)", gone.pid, os.getpid())
+                self.fired.set()  # from now on no run of this process ends (see watch_owner)
                 processes.kill_children()
                 os._exit(EXIT_OWNER_GONE)
 
@@ -120,6 +122,8 @@ def watch_owner(owner: Owner | None) -> Iterator[None]:
     try:
         yield
     finally:
+        if _WATCHDOG.fired.is_set():  # the run ended because its programs were killed:
+            threading.Event().wait()  # keep its result out of the store until the exit
         _WATCHDOG.remove(owner)
 
 
