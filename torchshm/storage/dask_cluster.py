@@ -43,8 +43,11 @@ def jobqueue_cluster(jobqueue: str, cores_per_run: int = 1, **params: Any) -> An
     if jobqueue not in JOBQUEUE_CLASSES:
         raise ValueError(f"unknown jobqueue {jobqueue!r}; expected one of {tuple(JOBQUEUE_CLASSES)}")
     cls = getattr(dask_jobqueue, JOBQUEUE_CLASSES[jobqueue])
+    # the job books cores_per_run cores; its worker runs one task at a time (the last
+    # --nthreads of the worker's command line is the one it uses)
+    extra = [*params.pop("worker_extra_args", []), "--nthreads", "1"]
     try:
-        return cls(cores=check_cores_per_run(cores_per_run), processes=1, **params)
+        return cls(cores=check_cores_per_run(cores_per_run), processes=1, worker_extra_args=extra, **params)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"bad {jobqueue} jobqueue option: {str(exc).splitlines()[0]}") from None
 

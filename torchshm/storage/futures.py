@@ -105,8 +105,12 @@ def _submit_all(executor: Any, task: Task, keys: Sequence[str]) -> dict[Any, str
 
 
 def _collect(task: Task, futures: dict[Any, str], records: dict[str, Record]) -> int:
-    """Wait for every future, storing each record as soon as its future is done."""
-    pending, pause = dict(futures), 0.01
+    """Wait for every future, storing each record as soon as its future is done.
+
+    ``futures`` is emptied as they are done: a Dask future no longer held is released, so a
+    worker lost later does not make Dask run its finished tasks again.
+    """
+    pending, pause, n_futures = futures, 0.01, len(futures)
     try:
         while pending:
             done = [future for future in pending if future.done()]
@@ -118,13 +122,15 @@ def _collect(task: Task, futures: dict[Any, str], records: dict[str, Record]) ->
             for future in done:
                 key = pending.pop(future)
                 records[key] = _outcome(task, key, future)
+                if callable(getattr(future, "release", None)):
+                    future.release()
                 if task.store is not None:
                     task.store.save(records[key])
                     claims.release(task.store, task.identity, key)
     finally:
         for future in pending:  # interrupted: runs not started yet are not started
             future.cancel()
-    return len(futures)
+    return n_futures
 
 
 def _outcome(task: Task, key: str, future: Any) -> Record:
