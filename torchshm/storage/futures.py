@@ -10,9 +10,10 @@ a θp that another live process is running is waited for, then taken from the st
 
 A worker that dies during a run: Dask runs the task again on another worker (up to its
 ``distributed.scheduler.allowed-failures``, 3 by default), then raises ``KilledWorker``; a
-``ProcessPoolExecutor`` raises ``BrokenProcessPool``. A θp whose future raised is recorded as a
-failed evaluation with that error (``retry_failed=True`` runs it again); every other result is
-kept.
+``ProcessPoolExecutor`` raises ``BrokenProcessPool`` for every run it had not finished. A θp
+whose task Dask gave up on is stored as a failed evaluation with that error
+(``retry_failed=True`` runs it again); the runs of a broken pool are failed in the result but
+not stored, so the next call runs them. Every finished result is kept.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import dataclasses
 import logging
 import time
 import traceback
+from concurrent.futures import BrokenExecutor, CancelledError
 from collections.abc import Sequence
 from typing import Any
 
@@ -121,11 +123,12 @@ def _collect(task: Task, futures: dict[Any, str], records: dict[str, Record]) ->
             pause = 0.01
             for future in done:
                 key = pending.pop(future)
-                records[key] = _outcome(task, key, future)
+                records[key], keep = _outcome(task, key, future)
                 if callable(getattr(future, "release", None)):
                     future.release()
                 if task.store is not None:
-                    task.store.save(records[key])
+                    if keep:
+                        task.store.save(records[key])
                     claims.release(task.store, task.identity, key)
     finally:
         for future in pending:  # interrupted: runs not started yet are not started
@@ -133,14 +136,18 @@ def _collect(task: Task, futures: dict[Any, str], records: dict[str, Record]) ->
     return n_futures
 
 
-def _outcome(task: Task, key: str, future: Any) -> Record:
-    """The future's record, or a failed one when the worker or the executor failed."""
+def _outcome(task: Task, key: str, future: Any) -> tuple[Record, bool]:
+    """The future's record and whether to store it. A task the executor itself lost (a broken
+    process pool, a cancelled future) gives a failed record that is not stored: it may never
+    have run, and the next call runs it."""
     try:
-        return future.result()
+        return future.result(), True
     except Exception as exc:  # the model call itself never raises: the worker failed
         logger.warning("evaluation of %s at θp=[%s] lost its worker: %s", task.identity, key,
                        error_text(exc))
-        return failed_record(task, key, f"worker failed: {error_text(exc)}", traceback.format_exc())
+        lost = isinstance(exc, (BrokenExecutor, CancelledError)) or type(exc).__name__ == "CancelledError"
+        record = failed_record(task, key, f"worker failed: {error_text(exc)}", traceback.format_exc())
+        return record, not lost
 
 
 def run_remote(task: Task, key: str) -> Record:
