@@ -87,9 +87,15 @@ def kill_main_mid_run(tmp: Path, executor: str) -> tuple[list[int], float]:
     return left, (time.monotonic() - t0) if not left else float("inf")
 
 
+DASK = "executor=__import__('torchshm.storage', fromlist=['dask_client']).dask_client(n_workers=2)"
+
+
 @pytest.mark.slow
-def test_kill_main_leaves_no_worker_or_program_and_resume_repeats_no_run(tmp_path: Path) -> None:
-    left, seconds = kill_main_mid_run(tmp_path, "n_jobs=2")
+@pytest.mark.parametrize("executor", ["n_jobs=2", DASK], ids=["joblib", "dask"])
+def test_kill_main_leaves_no_worker_or_program_and_resume_repeats_no_run(tmp_path: Path, executor: str) -> None:
+    """joblib: loky workers and their programs; dask: a LocalCluster's worker processes, their
+    programs, and the programs' own children (the worker ends at once, before its watchdog)."""
+    left, seconds = kill_main_mid_run(tmp_path, executor)
     assert not left, f"still running 10 s after kill -9: {left}"
     print(f"workers and FE programs gone {seconds:.1f} s after kill -9")
 

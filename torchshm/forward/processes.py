@@ -10,7 +10,11 @@ licence and the cores busy for hours. Two mechanisms, both used by
   ends;
 * its process group (each run is a session of its own) is registered here while it runs, so
   that :func:`kill_children` (called by the owner watchdog,
-  :mod:`torchshm.storage.watchdog`) stops the program and whatever it started.
+  :mod:`torchshm.storage.watchdog`) stops the program and whatever it started;
+* the groups are also told to a small guard process (one per process that runs programs)
+  through a pipe; when the pipe closes because its process died, however it died (a Dask
+  worker ends at once when its nanny goes), the guard kills the groups still registered, so
+  the programs the program started go too.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ import ctypes
 import ctypes.util
 import os
 import signal
+import subprocess
 import sys
 import threading
 import time
@@ -56,16 +61,54 @@ def child_setup(*steps: Callable[[], None] | None) -> Callable[[], None]:
     return setup
 
 
+#: the guard: reads "+group" / "-group" lines; at end of input kills the groups left
+_GUARD = """
+import os, signal, sys, time
+groups = set()
+for line in sys.stdin:
+    (groups.add if line[0] == "+" else groups.discard)(int(line[1:]))
+for sig in (signal.SIGTERM, signal.SIGKILL):
+    for group in groups:
+        try:
+            os.killpg(group, sig)
+        except OSError:
+            pass
+    if groups and sig == signal.SIGTERM:
+        time.sleep(2.0)
+"""
+_guard: dict[int, subprocess.Popen] = {}  # pid of this process -> its guard
+
+
+def _tell_guard(line: str) -> None:
+    """Send one line to this process's guard, starting it first (called under ``_lock``)."""
+    guard = _guard.get(os.getpid())
+    if guard is None or guard.poll() is not None:
+        try:
+            guard = subprocess.Popen([sys.executable, "-S", "-c", _GUARD], stdin=subprocess.PIPE,
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                     start_new_session=True, text=True)
+        except OSError:
+            return
+        _guard[os.getpid()] = guard
+    try:
+        guard.stdin.write(line + "\n")
+        guard.stdin.flush()
+    except OSError:
+        pass
+
+
 def track(group: int) -> None:
     """Register the process group ``group`` of a running program (see :func:`kill_children`)."""
     with _lock:
         _groups.add(group)
+        _tell_guard(f"+{group}")
 
 
 def untrack(group: int) -> None:
     """Forget the process group ``group`` (its program has ended)."""
     with _lock:
         _groups.discard(group)
+        _tell_guard(f"-{group}")
 
 
 def _child_pids(parent: int) -> list[int]:
