@@ -1,4 +1,5 @@
-"""Running the missing evaluations of a batch: in process, with joblib, or with submitit.
+"""Running the missing evaluations of a batch: in process, with joblib, or with submitit
+(any other executor with ``submit``: :mod:`torchshm.storage.futures`).
 
 Each runner calls the model once per parameter vector and hands every result to the store as
 soon as it exists, from the process that ran it: in process and with joblib the worker
