@@ -92,6 +92,7 @@ def test_a_server_error_or_a_timeout_is_a_failed_run(server: str) -> None:
 
 
 @pytest.mark.filterwarnings("ignore:emcee. the chain after burn-in:RuntimeWarning")
+@pytest.mark.slow
 def test_identification_through_umbridge(server: str) -> None:
     """A linear-Gaussian problem (independent discrepancy, σm = 0): emcee's posterior mean
     matches the exact one to 0.3 posterior sd."""
@@ -102,7 +103,7 @@ def test_identification_through_umbridge(server: str) -> None:
     priors = {"a": Normal(30.0, 20.0), "b": Normal(0.0, 20.0), "sigma_a": sigma_a}
     problem = Problem(model, Measurements(X, y, LOADS, sigma_e=sigma_e), kernel="independent",
                       priors=priors, sigma_m=0.0)
-    post = torchshm.identify(problem, method="emcee", seed=0, n_walkers=8, n_steps=200)
+    post = torchshm.identify(problem, method="emcee", seed=0, n_walkers=8, n_steps=120)
 
     A = np.stack([strains(e).ravel() for e in np.eye(2)], axis=1)  # (L n) x P
     s2 = sigma_a**2 + sigma_e**2
