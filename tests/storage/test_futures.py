@@ -56,3 +56,31 @@ def test_runs_that_do_not_fit_the_machine_are_refused_before_any_run(tmp_path: P
     with pytest.raises(ValueError, match="executor must have submit"):
         evaluate(Counted("unused"), DESIGN, executor=object())
     assert not (tmp_path / "calls.txt").exists()
+
+
+class _Failing:
+    """An executor whose futures fail: a=1 as a worker Dask gave up on, a=2 as a broken pool."""
+
+    def submit(self, fn, task, key):
+        from concurrent.futures import Future
+        from concurrent.futures.process import BrokenProcessPool
+
+        future: Future = Future()
+        a = float(key.split(",")[0])
+        if a == 1.0:
+            future.set_exception(RuntimeError("KilledWorker: attempted to run task 3 times"))
+        elif a == 2.0:
+            future.set_exception(BrokenProcessPool("a child process terminated abruptly"))
+        else:
+            future.set_result(fn(task, key))
+        return future
+
+
+def test_a_task_dask_gave_up_on_is_stored_failed_a_broken_pool_is_not(tmp_path: Path) -> None:
+    store = EvaluationStore(tmp_path / "s.sqlite")
+    model = Counted(str(tmp_path / "calls.txt"))
+    result = evaluate(model, DESIGN, store=store, executor=_Failing())
+    assert result.ok.tolist() == [False, False, False, True]
+    assert "KilledWorker" in result.errors[0] and "BrokenProcessPool" in result.errors[1]
+    assert store.count(model) == 2 and store.count(model, status="failed") == 1
+    assert evaluate(model, DESIGN, store=store).n_new == 1  # the broken pool's run, never stored
