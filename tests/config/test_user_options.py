@@ -65,7 +65,7 @@ def test_label_and_unit_are_not_distribution_fields() -> None:
     assert prior.hard_bounds == (1.0, 2.0)
 
 
-@pytest.mark.parametrize("option", ["serial", "joblib", "local", "slurm"])
+@pytest.mark.parametrize("option", ["serial", "joblib", "dask", "local", "slurm"])
 def test_executor_group_is_selectable(compose_cfg, option: str) -> None:
     s = settings(compose_cfg, f"executor={option}")
     assert s.executor.kind == option

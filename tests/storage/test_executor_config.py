@@ -41,8 +41,9 @@ def test_slurm_settings_give_the_sbatch_options(tmp_path: Path, fake_slurm: None
 
 
 def test_other_settings(tmp_path: Path) -> None:
-    assert evaluation_options(**_settings("serial")) == {"n_jobs": 1, "executor": None}
-    assert evaluation_options(**_settings("joblib")) == {"n_jobs": 4, "executor": None}
+    none = {"cores_per_run": None, "cores_env": []}
+    assert evaluation_options(**_settings("serial")) == {"n_jobs": 1, "executor": None} | none
+    assert evaluation_options(**_settings("joblib")) == {"n_jobs": 4, "executor": None} | none
     local = evaluation_options(**_settings("local") | {"folder": str(tmp_path)})["executor"]
     assert local.cluster == "local" and local.parameters["timeout_min"] == 60
 

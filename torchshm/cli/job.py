@@ -173,6 +173,7 @@ class PreparedJob:
     held_out: Measurements | None
     t0: float
     labels: dict[str, str] = field(default_factory=dict)
+    model: Any = None  # the forward model as built (a ParallelModel's Dask client is closed after the run)
 
 
 def prepare_job(settings: Config, base: Path) -> PreparedJob:
@@ -196,7 +197,7 @@ def prepare_job(settings: Config, base: Path) -> PreparedJob:
     problem = build_problem(settings, model, measurements, base, priors)
     _check_method_options(settings, len(problem.names))
     labels = parameter_labels(settings.priors, model.model if isinstance(model, ParallelModel) else model)
-    return PreparedJob(settings, problem, measurements, held_out, t0, labels)
+    return PreparedJob(settings, problem, measurements, held_out, t0, labels, model)
 
 
 def run_job(job: PreparedJob, out_dir: Path) -> JobResult:
@@ -205,6 +206,14 @@ def run_job(job: PreparedJob, out_dir: Path) -> JobResult:
     Errors raised here are failures of the run, not bad input: in a sweep, Hydra records the
     failed job and goes on with the others.
     """
+    try:
+        return _run(job, out_dir)
+    finally:
+        if isinstance(job.model, ParallelModel):
+            job.model.close()
+
+
+def _run(job: PreparedJob, out_dir: Path) -> JobResult:
     import torchshm
 
     settings, problem = job.settings, job.problem

@@ -58,17 +58,27 @@ def instantiate_model(spec: Mapping[str, Any], base: Path) -> ForwardModel:
 
 
 def with_executor(model: ForwardModel, executor: ExecutorConfig) -> ForwardModel:
-    """``model`` itself for the serial executor, else a :class:`~torchshm.forward.ParallelModel`.
+    """``model`` itself for the serial executor (wrapped in
+    :class:`~torchshm.forward.cores.CoresPerRun` with ``cores_per_run``), else a
+    :class:`~torchshm.forward.ParallelModel`.
 
     Raises:
-        ValueError: for an unknown executor kind or parameter (the message names it).
+        ValueError: for an unknown executor kind or parameter, or runs that do not fit the
+            machine's cores (the message names it).
     """
     from torchshm.forward import ParallelModel
+    from torchshm.forward.cores import CoresPerRun, fit_workers
     from torchshm.storage import evaluation_options
 
-    options = evaluation_options(executor.kind, executor.folder, executor.n_jobs, executor.params)
+    options = evaluation_options(
+        executor.kind, executor.folder, executor.n_jobs, executor.params, executor.address,
+        executor.jobqueue, executor.cores_per_run, executor.cores_env,
+    )
     if options["executor"] is None and options["n_jobs"] == 1:
-        return model
+        if options["cores_per_run"] is None:
+            return model
+        fit_workers(1, options["cores_per_run"])
+        return CoresPerRun(model, options["cores_per_run"], options["cores_env"])
     return ParallelModel(model, **options)
 
 

@@ -10,7 +10,7 @@ Layout of the composed config::
     kernel:     {name}                                 # group kernel/ (from the kernel registry)
     method:     {name, <options of the method>}        # group method/
     model:      {_target_, <keyword arguments>}        # group model/ (Hydra instantiate)
-    executor:   {kind, folder, n_jobs, params}         # group executor/ (model runs in parallel)
+    executor:   {kind, folder, n_jobs, params, address, jobqueue, cores_per_run, cores_env}   # group executor/
     priors:     {<parameter>: {dist, a, b, ..., label, unit}}   # group priors/ (Tables 2 and 4)
     data:       {path, format, missing, lines, odisi, campaign_seed, loads, resolution, pitch}
     predict:    {loads, n}
@@ -87,12 +87,17 @@ class ModelConfig:
 @dataclass
 class ExecutorConfig:
     """Where forward-model runs go (group ``executor/``): the arguments of
-    :func:`torchshm.storage.evaluation_options` (``kind`` serial, joblib, local, slurm, debug)."""
+    :func:`torchshm.storage.evaluation_options` (``kind`` serial, joblib, dask, local, slurm,
+    debug)."""
 
     kind: str = "serial"
     folder: str = "runs/submitit"  # submitit's job folder (local, slurm, debug)
-    n_jobs: int = 1  # worker processes (joblib); -1 uses every core
-    params: Dict[str, Any] = field(default_factory=dict)  # submitit parameters
+    n_jobs: int = 1  # worker processes (joblib, dask); -1: as many as fit; dask + jobqueue: batch jobs
+    params: Dict[str, Any] = field(default_factory=dict)  # submitit parameters, or the Dask cluster's options
+    address: Optional[str] = None  # dask: a running scheduler, e.g. tcp://10.0.0.5:8786; None starts a cluster
+    jobqueue: Optional[str] = None  # dask: slurm, pbs, sge, lsf, htcondor, oar or moab (dask-jobqueue)
+    cores_per_run: Optional[int] = None  # threads of one run (OMP_NUM_THREADS, ...); None: as they are
+    cores_env: List[str] = field(default_factory=list)  # the program's own thread variables
 
 
 @dataclass

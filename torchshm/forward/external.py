@@ -28,6 +28,7 @@ import torch
 from torch import Tensor
 
 from torchshm.forward.axes import load_axis
+from torchshm.forward import processes
 from torchshm.forward.files import LOG_FILE, PARAMS_FILE, read_strains, write_params
 from torchshm.forward.protocol import as_tensor
 from torchshm.forward.runs import RunFolders
@@ -216,10 +217,12 @@ class ExternalModel:
                 process = subprocess.Popen(
                     self.command, cwd=folder, stdout=log, stderr=subprocess.STDOUT,
                     stdin=subprocess.DEVNULL, shell=shell, env=env, start_new_session=True,
-                    preexec_fn=_file_size_limit(self.max_output_bytes),
+                    # killed with its worker (torchshm.forward.processes)
+                    preexec_fn=processes.child_setup(_file_size_limit(self.max_output_bytes)),
                 )
             except OSError as exc:
                 raise ExternalModelError(f"cannot start {self.command!r}: {exc}") from None
+            processes.track(process.pid)  # its group, stopped if the study dies
             try:
                 status = process.wait(timeout=self.timeout)
             except subprocess.TimeoutExpired:
@@ -231,6 +234,7 @@ class ExternalModel:
             finally:
                 if process.poll() is None:  # interrupted while waiting: leave no orphan run
                     _kill_group(process, self.kill_grace)
+                processes.untrack(process.pid)
         if status != 0 and (status == -signal.SIGXFSZ or self._hit_size_limit(folder)):
             raise ExternalModelError(
                 f"program stopped for writing a file over max_output_bytes="

@@ -9,19 +9,22 @@ from __future__ import annotations
 
 import logging
 import numbers
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from torchshm.forward.cores import CoresPerRun, fit_workers
 from torchshm.forward.parallel import ParallelModel
 from torchshm.forward.protocol import model_identity, output_shape
-from torchshm.storage import runners
+from torchshm.storage import futures, runners
 from torchshm.storage.interrupt import resumable
 from torchshm.storage.keys import theta_key, canonical_theta
 from torchshm.storage.record import Record
 from torchshm.storage.store import EvaluationStore
+from torchshm.storage.watchdog import Owner
 
 if TYPE_CHECKING:
     from torchshm.forward.protocol import ForwardModel
@@ -80,6 +83,8 @@ def evaluate(
     n_jobs: int = 1,
     executor: Any | None = None,
     retry_failed: bool = False,
+    cores_per_run: int | None = None,
+    cores_env: Sequence[str] = (),
 ) -> EvaluationResult:
     """Evaluate a forward model at every row of ``theta_p``, reusing stored evaluations.
 
@@ -91,19 +96,29 @@ def evaluate(
         model: a forward model (see :class:`torchshm.forward.ForwardModel`); it must be
             picklable when ``n_jobs != 1`` or ``executor`` is given. A
             :class:`~torchshm.forward.ParallelModel` is unwrapped: its model runs with its
-            ``n_jobs`` or ``executor``, each run stored by the worker that made it.
+            ``n_jobs``, ``executor`` and ``cores_per_run``.
         theta_p: parameters `N x P` or `P`, in the model's units.
         store: an :class:`EvaluationStore` or a path to one; None keeps nothing.
-        n_jobs: local worker processes (joblib); -1 uses every core. Ignored with ``executor``.
-        executor: a submitit executor (see :func:`make_executor`): one job per θp.
+        n_jobs: local worker processes (joblib); -1 uses every core (with ``cores_per_run``:
+            as many workers as fit). Ignored with ``executor``.
+        executor: where the runs go, one task per θp: any object whose ``submit(fn, *args)``
+            returns futures (a ``dask.distributed.Client``, see :func:`dask_client`; a
+            ``concurrent.futures`` executor), this process storing each result when it is done;
+            or a submitit executor (see :func:`make_executor`), one job of a job array per θp.
         retry_failed: run again the θp whose stored evaluation failed.
+        cores_per_run: threads of one run (``OMP_NUM_THREADS`` and the others of
+            :class:`~torchshm.forward.cores.CoresPerRun`); None leaves them as they are.
+            Workers x ``cores_per_run`` must fit the machine (local workers only).
+        cores_env: the program's own thread variables, set to ``cores_per_run`` too (e.g.
+            ``["CCX_NPROC_EQUATION_SOLVER"]``).
 
     Returns:
         The :class:`EvaluationResult`, rows in the order of ``theta_p``.
 
     Raises:
         ValueError: if ``theta_p`` is not a finite `N x P` array, the model lacks ``x`` or
-            ``loads``, or ``n_jobs`` is 0.
+            ``loads``, ``n_jobs`` is 0, ``executor`` has no ``submit``, or the runs need more
+            cores than the machine has.
         KeyboardInterrupt, SystemExit: on Ctrl-C or SIGTERM, after one line on stderr (see
             :func:`torchshm.storage.interrupt.resumable`); every finished run stays stored.
     """
@@ -114,6 +129,12 @@ def evaluate(
     if isinstance(n_jobs, bool) or not isinstance(n_jobs, numbers.Integral) or n_jobs == 0:
         raise ValueError(f"n_jobs must be a non-zero integer, got {n_jobs!r}")
     n_jobs = int(n_jobs)
+    if executor is not None:
+        futures.check_executor(executor)
+    if cores_per_run is not None:
+        n_jobs = plan_cores(n_jobs, executor, cores_per_run)
+        if not isinstance(model, CoresPerRun):
+            model = CoresPerRun(model, cores_per_run, cores_env)
     if store is not None and not isinstance(store, EvaluationStore):
         store = EvaluationStore(store)
     keys = [theta_key(row) for row in theta]
@@ -125,12 +146,14 @@ def evaluate(
     todo = [k for k in distinct if k not in known or (retry_failed and not known[k].ok)]
     logger.info("%s: %d distinct θp, %d in the store, %d to run", identity, len(distinct),
                 len(distinct) - len(todo), len(todo))
-    task = runners.Task(model, identity, shape, store, retry_failed)
+    task = runners.Task(model, identity, shape, store, retry_failed, Owner.this_process())
     new: dict[str, Record] = {}
     n_calls = 0
     with resumable(f"evaluation of {identity}", None if store is None else store.path):
-        if todo and executor is not None:
+        if todo and executor is not None and callable(getattr(executor, "map_array", None)):
             new, n_calls = runners.run_submitit(task, todo, executor)
+        elif todo and executor is not None:
+            new, n_calls = futures.run_futures(task, todo, executor)
         elif todo and n_jobs != 1 and len(todo) > 1:
             new, n_calls = runners.run_joblib(task, todo, n_jobs)
         elif todo:
@@ -139,6 +162,25 @@ def evaluate(
         store.ingest()  # results a worker could only deposit in the spool
     return _assemble(identity, theta, keys, {**known, **new}, shape, n_calls,
                      len(distinct) - n_calls)
+
+
+def plan_cores(n_jobs: int, executor: Any | None, cores_per_run: int) -> int:
+    """``n_jobs`` checked against the machine's cores for runs of ``cores_per_run`` threads.
+
+    Local workers (joblib, or a Dask client's workers on this machine) x ``cores_per_run``
+    must not exceed the cores; ``n_jobs=-1`` becomes as many workers as fit. Nothing is
+    checked for a submitit executor or another executor (their resources are theirs).
+
+    Raises:
+        ValueError: naming the numbers, before any run.
+    """
+    if executor is None:
+        return fit_workers(n_jobs, cores_per_run)
+    if futures.is_dask_client(executor):
+        from torchshm.storage.dask_cluster import check_client_cores
+
+        check_client_cores(executor, cores_per_run)
+    return n_jobs
 
 
 def _assemble(

@@ -1,13 +1,13 @@
-"""Executors for :func:`evaluate`: submitit for local and Slurm jobs, joblib for processes.
+"""Executors for :func:`evaluate`: submitit for local and Slurm jobs, joblib for processes, Dask.
 
 Scheduling is not done here: submitit submits one job per θp (a Slurm job array), joblib
-spreads the runs over local processes. This module only builds them from plain settings, as
-written in ``conf/executor/*.yaml``.
+spreads the runs over local processes, Dask over its workers (:mod:`.dask_cluster`). This
+module only builds them from plain settings, as written in ``conf/executor/*.yaml``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +16,7 @@ import submitit
 #: kinds accepted by :func:`make_executor`
 EXECUTOR_KINDS = ("local", "slurm", "debug")
 #: kinds accepted by :func:`evaluation_options`
-EVALUATION_KINDS = ("serial", "joblib", *EXECUTOR_KINDS)
+EVALUATION_KINDS = ("serial", "joblib", "dask", *EXECUTOR_KINDS)
 
 # A finite element run takes about 10 minutes; submitit's own local default is 2.
 _DEFAULTS: dict[str, dict[str, Any]] = {
@@ -64,26 +64,49 @@ def evaluation_options(
     folder: str | Path = "runs/submitit",
     n_jobs: int = 1,
     params: Mapping[str, Any] | None = None,
+    address: str | None = None,
+    jobqueue: str | None = None,
+    cores_per_run: int | None = None,
+    cores_env: Sequence[str] = (),
 ) -> dict[str, Any]:
-    """Keyword arguments ``n_jobs`` and ``executor`` for :func:`evaluate` from plain settings.
+    """Keyword arguments ``n_jobs``, ``executor``, ``cores_per_run`` and ``cores_env`` for
+    :func:`evaluate` (and :class:`~torchshm.forward.ParallelModel`) from plain settings.
 
     Args:
-        kind: ``"serial"`` (in this process), ``"joblib"`` (``n_jobs`` local processes), or
-            a submitit kind of :func:`make_executor`.
+        kind: ``"serial"`` (in this process), ``"joblib"`` (``n_jobs`` local processes),
+            ``"dask"`` (a Dask client, :func:`~torchshm.storage.dask_client`), or a submitit
+            kind of :func:`make_executor`.
         folder: submitit's folder (submitit kinds only).
-        n_jobs: local worker processes (``"joblib"`` only).
-        params: submitit parameters (submitit kinds only).
+        n_jobs: local worker processes (``"joblib"``), or Dask workers (``"dask"`` without
+            ``address``: local workers, -1 as many as fit; with ``jobqueue``: batch jobs).
+        params: submitit parameters, or options of the Dask cluster (``LocalCluster`` or the
+            jobqueue class).
+        address: ``"dask"``: a running scheduler's address; None starts a cluster.
+        jobqueue: ``"dask"``: ``"slurm"``, ``"pbs"``, ``"sge"``, ``"lsf"``, ... (dask-jobqueue).
+        cores_per_run: threads of one run; None leaves them as they are (``"dask"``: 1).
+        cores_env: the program's own thread variables, set to ``cores_per_run`` too.
 
     Returns:
-        ``{"n_jobs": int, "executor": executor or None}``.
+        ``{"n_jobs": int, "executor": executor or None, "cores_per_run": int or None,
+        "cores_env": list}``.
 
     Raises:
-        ValueError: for an unknown kind or parameter.
+        ValueError: for an unknown kind or parameter, or runs that do not fit the machine.
     """
     if kind not in EVALUATION_KINDS:
         raise ValueError(f"unknown executor kind {kind!r}; expected one of {EVALUATION_KINDS}")
-    if kind == "serial":
-        return {"n_jobs": 1, "executor": None}
+    if kind != "dask" and (address is not None or jobqueue is not None):
+        raise ValueError(f"address and jobqueue apply to executor kind 'dask', not {kind!r}")
+    options: dict[str, Any] = {"n_jobs": 1, "executor": None, "cores_per_run": cores_per_run,
+                               "cores_env": list(cores_env)}
     if kind == "joblib":
-        return {"n_jobs": int(n_jobs), "executor": None}
-    return {"n_jobs": 1, "executor": make_executor(kind, folder, **dict(params or {}))}
+        options["n_jobs"] = int(n_jobs)
+    elif kind == "dask":
+        from torchshm.storage.dask_cluster import dask_client
+
+        options["cores_per_run"] = 1 if cores_per_run is None else cores_per_run
+        options["executor"] = dask_client(address, int(n_jobs), options["cores_per_run"], jobqueue,
+                                          **dict(params or {}))
+    elif kind != "serial":
+        options["executor"] = make_executor(kind, folder, **dict(params or {}))
+    return options

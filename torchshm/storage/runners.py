@@ -1,4 +1,5 @@
-"""Running the missing evaluations of a batch: in process, with joblib, or with submitit.
+"""Running the missing evaluations of a batch: in process, with joblib, or with submitit
+(any other executor with ``submit``: :mod:`torchshm.storage.futures`).
 
 Each runner calls the model once per parameter vector and hands every result to the store as
 soon as it exists, from the process that ran it: in process and with joblib the worker
@@ -28,6 +29,7 @@ from torchshm.storage import claims
 from torchshm.storage.keys import key_theta
 from torchshm.storage.record import Record, now_utc, run_model
 from torchshm.storage.store import EvaluationStore
+from torchshm.storage.watchdog import Owner, watch_owner
 
 if TYPE_CHECKING:
     from torchshm.forward.protocol import ForwardModel
@@ -45,6 +47,8 @@ class Task:
         shape: expected output shape `(L_model, n_model)`.
         store: where results go, or None.
         retry_failed: whether a stored failure is run again.
+        owner: the process that asked for the runs; a worker on its host ends when it dies
+            (:mod:`torchshm.storage.watchdog`).
     """
 
     model: ForwardModel
@@ -52,6 +56,7 @@ class Task:
     shape: tuple[int, int]
     store: EvaluationStore | None
     retry_failed: bool = False
+    owner: Owner | None = None
 
 
 #: a runner's result: key -> record, and the number of model calls made
@@ -91,7 +96,7 @@ def _run_isolated(task: Task, keys: Sequence[str]) -> Outcome:
         try:
             [(record, ran)] = joblib.Parallel(n_jobs=2, batch_size=1)([joblib.delayed(_run_and_save)(task, key)])
         except TerminatedWorkerError as exc:
-            record, ran = _failed(task, key, f"worker process died: {exc}", repr(exc)), 1
+            record, ran = failed_record(task, key, f"worker process died: {exc}", repr(exc)), 1
             if task.store is not None:
                 task.store.save(record)
         records[key] = record
@@ -99,7 +104,7 @@ def _run_isolated(task: Task, keys: Sequence[str]) -> Outcome:
     return records, calls
 
 
-def _failed(task: Task, key: str, error: str, traceback: str) -> Record:
+def failed_record(task: Task, key: str, error: str, traceback: str) -> Record:
     """A failed evaluation of ``key`` whose model call ended without a result."""
     return Record(
         model=task.identity, key=key, status="failed", outputs=None, error=error,
@@ -123,7 +128,7 @@ def run_submitit(task: Task, keys: Sequence[str], executor: Any) -> Outcome:
         try:
             record = job.result()
         except Exception as exc:  # the job itself failed; the model call may never have run
-            record = _failed(task, key, f"job {job.job_id} failed: {_job_error(exc)}", str(exc))
+            record = failed_record(task, key, f"job {job.job_id} failed: {_job_error(exc)}", str(exc))
         if task.store is not None:
             task.store.ingest()
             task.store.save(record)
@@ -147,7 +152,8 @@ def _run_and_save(task: Task, key: str) -> tuple[Record, bool]:
     """
     store = task.store
     if store is None:
-        return run_model(task.model, task.identity, key, key_theta(key), task.shape), True
+        with watch_owner(task.owner):
+            return run_model(task.model, task.identity, key, key_theta(key), task.shape), True
     found = store.lookup(task.identity, [key]).get(key)
     if found is not None and (found.ok or not task.retry_failed):
         return found, False
@@ -157,7 +163,8 @@ def _run_and_save(task: Task, key: str) -> tuple[Record, bool]:
             return found, False
     record = None
     try:
-        record = run_model(task.model, task.identity, key, key_theta(key), task.shape)
+        with watch_owner(task.owner):
+            record = run_model(task.model, task.identity, key, key_theta(key), task.shape)
     finally:  # a signal landing just after the run still lets the finished run be kept
         if record is not None:
             store.save(record)
