@@ -167,7 +167,8 @@ def stored_emulator(
 
     Returns:
         A :class:`~torchshm.surrogate.Surrogate` whose ``x`` and ``loads`` are the prediction
-        points and load cases, trained on at most MAX_TRAINING_POINTS stored evaluations.
+        points and load cases (for `n x d` coordinates ``x`` is the point number 0..n-1),
+        trained on at most MAX_TRAINING_POINTS stored evaluations.
     """
     return _emulator(problem, prediction_view(problem, positions), loads, seed, emulator_options)
 
@@ -182,7 +183,9 @@ def _emulator(problem: Problem, view: PredictionView, loads: Iterable[float] | f
     t0 = time.perf_counter()
     logger.info("posterior predictive: fitting the emulator to %d stored model runs "
                 "(%d load case(s) x %d positions)", *outputs.shape)
-    emulator = fit_emulator(theta_train, outputs, view.x, _loads_tensor(problem.model, loads_idx), **options)
+    # the Surrogate keeps `n` positions; points of a field are given by their number
+    x = view.x if view.x.ndim == 1 else torch.arange(view.x.shape[0], dtype=torch.float64)
+    emulator = fit_emulator(theta_train, outputs, x, _loads_tensor(problem.model, loads_idx), **options)
     logger.info("posterior predictive: emulator fitted in %.1f s", time.perf_counter() - t0)
     return emulator
 
