@@ -7,7 +7,10 @@ Hydra callback :class:`SweepComparison` (listed in ``conf/config.yaml`` under
 - ``comparison.csv`` / ``comparison.md``: one row per job (named by the overrides that set it
   apart from the other jobs, e.g. ``kernel=matern52``): method, ELBO ± sd, log10 Bayes
   factor of the best job over this one with Jeffreys' label (paper, Tables 1 and 9), mean
-  hold-out coverage of the 95 % predictive interval, forward-model runs, convergence, time;
+  hold-out coverage of the 95 % predictive interval (over the load cases, all lines pooled),
+  forward-model runs, convergence, time, the KL divergence prior -> posterior with where its
+  density came from (``posterior density`` or ``fitted mixture``, :func:`torchshm.kl_divergence`)
+  and whether a Bayes factor is defined (the method's evidence, or why not);
 - ``bayes_factors.csv``: every pair of jobs with an ELBO (:func:`torchshm.bayes_factors`).
 
 A job without ``run.json`` (it failed) is listed as failed.
@@ -29,7 +32,8 @@ log = logging.getLogger(__name__)
 
 #: columns of comparison.csv
 COLUMNS = ("job", "folder", "method", "elbo", "elbo_sd", "log10_B_best_over_job", "jeffreys",
-           "holdout_coverage", "model_runs", "converged", "wall_time_s", "status")
+           "holdout_coverage", "model_runs", "converged", "wall_time_s", "status", "kl", "kl_se",
+           "kl_source", "bayes_factor")
 
 
 def job_overrides(folder: Path) -> list[str]:
@@ -63,7 +67,9 @@ def job_row(folder: Path, name: str | None = None) -> dict[str, Any]:
     except (OSError, ValueError):
         row["status"] = "failed"
         return row
-    coverage = [p["coverage"] for p in record.get("predictive") or [] if "coverage" in p]
+    coverage = [p["coverage"] for p in record.get("predictive") or []
+                if "coverage" in p and p.get("line", "all") == "all"]
+    info = record.get("information") or {}
     row.update(
         method=record.get("method", ""),
         elbo=record.get("log_evidence"),
@@ -73,6 +79,10 @@ def job_row(folder: Path, name: str | None = None) -> dict[str, Any]:
         converged=record.get("converged"),
         wall_time_s=record.get("wall_time_s"),
         status="ok",
+        kl=info.get("kl"),
+        kl_se=info.get("kl_se"),
+        kl_source=info.get("kl_source") or info.get("kl_reason", ""),
+        bayes_factor=info.get("evidence", ""),
     )
     return row
 
@@ -114,8 +124,8 @@ def compare_runs(sweep_dir: Path) -> dict[str, Path]:
 
 def _markdown(rows: list[dict[str, Any]]) -> str:
     head = ("| job | method | ELBO [nats] | log10 B (best / job) | Jeffreys | hold-out coverage "
-            "| model runs | converged | status |")
-    lines = [head, "|---" * 9 + "|"]
+            "| model runs | converged | status | KL [nats] | KL from | Bayes factor |")
+    lines = [head, "|---" * 12 + "|"]
     for r in rows:
         elbo = "" if r["elbo"] in ("", None) else f"{r['elbo']:.2f}"
         if elbo and r["elbo_sd"] not in ("", None):
@@ -123,8 +133,15 @@ def _markdown(rows: list[dict[str, Any]]) -> str:
         bf = "" if r["log10_B_best_over_job"] == "" else f"{r['log10_B_best_over_job']:.2f}"
         cov = "" if r["holdout_coverage"] in ("", None) else f"{100 * r['holdout_coverage']:.1f} %"
         lines.append(f"| {r['job']} | {r['method']} | {elbo} | {bf} | {r['jeffreys']} | {cov} "
-                     f"| {_cell(r['model_runs'])} | {_cell(r['converged'])} | {r['status']} |")
+                     f"| {_cell(r['model_runs'])} | {_cell(r['converged'])} | {r['status']} "
+                     f"| {_kl(r)} | {r['kl_source']} | {r['bayes_factor']} |")
     return "\n".join(lines) + "\n"
+
+
+def _kl(row: dict[str, Any]) -> str:
+    if not isinstance(row["kl"], (int, float)):
+        return ""
+    return f"{row['kl']:.2f}" + (f" ± {row['kl_se']:.2f}" if isinstance(row["kl_se"], (int, float)) else "")
 
 
 def _float(value: Any) -> float:
