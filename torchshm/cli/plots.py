@@ -204,7 +204,7 @@ def predictive_map(pred: object, measurements: object, load: float, path: Path) 
     ax.scatter(xy[above, 0], xy[above, 1], c="C3", marker="s", s=60, label="above")
     ax.scatter(xy[below, 0], xy[below, 1], c="C0", marker="s", s=60, label="below")
     ax.set_title(f"outside the interval: {int(above.sum() + below.sum())} of {int(valid.sum())}")
-    ax.legend(frameon=False, fontsize="small", loc="upper right")
+    ax.legend(frameon=False, fontsize="small", loc="upper left", bbox_to_anchor=(1.0, 1.0))
     for ax in axes.flat:
         ax.set_aspect("equal")
     for ax in axes[-1]:
