@@ -44,17 +44,21 @@ def test_readme_run_identifies_every_parameter_within_its_95_interval(tmp_path: 
         rows = {r["name"]: r for r in csv.DictReader(line for line in f if not line.startswith("#"))}
     for name, value in TRUTH.items():
         assert float(rows[name]["q2.5"]) < value < float(rows[name]["q97.5"]), (name, rows[name])
-    for name in ("posterior.nc", "corner.png", "elbo.png", "identify.log"):
+    for name in ("posterior.nc", "corner.png", "elbo.png", "identify.log", "predictive.csv",
+                 "predictive_map_0.75.png", "predictive_map_1.25.png"):
         assert (tmp_path / "run" / name).is_file(), name
+    held_out = [row for row in record["predictive"] if row["line"] == "all"]
+    assert [row["load"] for row in held_out] == [0.75, 1.25]
+    assert all(row["coverage"] > 0.8 and row["r2"] > 0.8 for row in held_out), held_out
 
 
-def test_predictive_of_a_field_is_refused_in_one_line() -> None:
+def test_predictive_view_of_a_field() -> None:
     import sys
 
     import numpy as np
 
     import torchshm
-    from torchshm.predictive.selection import problem_of
+    from torchshm.predictive import prediction_view
 
     sys.path.insert(0, str(REPO))
     from examples.plate_dic.plate import PlateDIC
@@ -63,6 +67,6 @@ def test_predictive_of_a_field_is_refused_in_one_line() -> None:
     problem = torchshm.Problem(PlateDIC(), m.select([0.5]), priors={
         "E": torchshm.Uniform(10, 60), "log10_k": torchshm.Uniform(4, 9),
         "sigma_a": torchshm.Uniform(0, 20), "length": torchshm.Uniform(0, 2)})
-    with pytest.raises(ValueError, match=r"positions along a line only; this problem's x are \(192, 2\) coordinates"):
-        problem_of(None, problem)  # type: ignore[arg-type]
+    view = prediction_view(problem)
+    assert tuple(view.x.shape) == (192, 2) and view.line is None and len(view.parts) == 1
     assert np.isfinite(problem.log_joint(np.array([32.0, 6.5, 4.0, 0.3])))

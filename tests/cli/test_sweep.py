@@ -96,3 +96,24 @@ def test_the_warnings_of_each_job_are_named_in_the_table(tmp_path: Path) -> None
     assert rows["seed=1"]["warnings"] == ""
     text = files["markdown"].read_text()
     assert "| 40 | False | NOT CONVERGED; PRIOR BOUND (E_c upper) | ok |" in text
+
+
+def test_kl_and_bayes_factor_columns_say_where_they_come_from(tmp_path: Path) -> None:
+    vbmc = {**record(-100.0, 0.1, [0.9], 50), "information": {
+        "evidence": "vbmc log evidence", "kl": 3.21, "kl_se": 0.01, "kl_source": "posterior density"}}
+    emcee = {**record(0.0, 0.0, [0.8], 10), "method": "emcee", "log_evidence": None, "log_evidence_sd": None,
+             "information": {"evidence": "not defined: emcee computes no evidence", "kl": 3.4, "kl_se": 0.05,
+                             "kl_source": "fitted mixture", "kl_density_error": 0.02},
+             "predictive": [{"load": 1.0, "line": "a", "coverage": 0.5},
+                            {"load": 1.0, "line": "all", "coverage": 0.8}]}
+    job(tmp_path, "method=vbmc", vbmc)
+    job(tmp_path, "method=emcee", emcee)
+    files = compare_runs(tmp_path)
+    with open(files["csv"]) as f:
+        rows = {r["job"]: r for r in csv.DictReader(f)}
+    assert rows["method=emcee"]["kl_source"] == "fitted mixture"
+    assert rows["method=emcee"]["bayes_factor"].startswith("not defined")
+    assert float(rows["method=emcee"]["holdout_coverage"]) == pytest.approx(0.8)  # the pooled row only
+    text = files["markdown"].read_text()
+    assert "| 3.21 ± 0.01 | posterior density | vbmc log evidence |" in text
+    assert "| 3.40 ± 0.05 | fitted mixture | not defined: emcee computes no evidence |" in text

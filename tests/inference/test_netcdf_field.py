@@ -47,3 +47,16 @@ def test_sensor_lines_and_their_noise_levels_are_written(tmp_path, rng: np.rando
         assert json.loads(ds.attrs["sigma_e"]) == {"a": 0.1, "b": 0.3}
         assert np.array_equal(ds["y"].values, meas.y)
     assert load_posterior(path).samples.shape == (20, 1)
+
+
+def test_to_arviz_takes_field_coordinates_and_lines(rng: np.random.Generator) -> None:
+    xy = np.array([[0.0, 0.0], [0.5, 0.0], [0.0, 0.25]])
+    meas = torchshm.Measurements(xy, rng.normal(size=(2, 3)), [0.5, 1.0], sigma_e=3.0)
+    post = Posterior(names=["a"], method="emcee", samples=rng.normal(size=(20, 1)), n_chains=2,
+                     problem=SimpleNamespace(measurements=meas))  # type: ignore[arg-type]
+    observed = post.to_arviz().observed_data
+    assert observed["y"].dims == ("load", "point") and np.array_equal(observed["x"].values, xy)
+    lines = torchshm.Measurements([0.0, 0.1, 0.0, 0.1], rng.normal(size=(1, 4)), [0.5], line=["a", "a", "b", "b"])
+    post.problem = SimpleNamespace(measurements=lines)  # type: ignore[assignment]
+    observed = post.to_arviz().observed_data
+    assert list(observed["line"].values) == ["a", "a", "b", "b"] and observed["y"].shape == (1, 4)

@@ -8,7 +8,9 @@ from scipy import stats
 
 from torchshm.data import Measurements
 from torchshm.kernels import get_kernel
+from torchshm.likelihood.blocks import make_blocks
 from torchshm.problem import ParameterSplit
+from torchshm.problem.matching import match_measured
 
 
 class LinearModel:
@@ -48,6 +50,8 @@ class FakeProblem:
         self.kernel = kernel
         self.sigma_m = sigma_m
         self.sigma_e = measurements.sigma_e
+        self.positions = match_measured(measurements, model)
+        self.blocks = make_blocks(measurements.x, measurements.mask, measurements.line_slices(), self.sigma_e)
         self.physical_names = ["a", "b"]
         self.priors: dict[str, object] = {"a": NormalPrior(10.0, 3.0), "b": NormalPrior(5.0, 2.0),
                                           "sigma_a": NormalPrior(1.0, 0.5), "length": NormalPrior(2.0, 1.0)}

@@ -52,3 +52,23 @@ def test_estimate_is_a_number_with_its_error() -> None:
     kl = KLEstimate(1.25, 0.01, 100)
     assert kl == 1.25 and kl > 1 and f"{kl:.1f}" == "1.2" and kl + 1 == 2.25
     assert (kl.value, kl.se, kl.n) == (1.25, 0.01, 100)
+
+
+def test_emcee_posterior_gets_a_fitted_mixture_within_its_stated_error() -> None:
+    """Samples only (no density): a held-out Gaussian mixture against the analytic KL."""
+    from torchshm import Normal
+    from torchshm.inference import Posterior
+
+    mp, sp = np.array([10.0, 5.0, 1.0]), np.array([3.0, 2.0, 0.5])
+    mq = np.array([10.5, 4.5, 1.1])
+    cq = np.array([[0.2, 0.07, 0.0], [0.07, 0.1, 0.0], [0.0, 0.0, 0.01]])
+    priors = {n: Normal(m, s) for n, m, s in zip("abc", mp, sp)}
+    samples = np.random.default_rng(0).multivariate_normal(mq, cq, size=4000)
+    post = Posterior(names=list("abc"), method="emcee", samples=samples, n_chains=4, priors=priors)
+    kl = kl_divergence(post, seed=0)
+    exact = gaussian_kl(mq, cq, mp, sp)  # 4.106 nats
+    assert kl.source == "fitted mixture" and kl.n == 4000
+    assert 0.0 <= kl.density_error < 0.05
+    assert abs(kl.value - exact) < 3 * kl.se + kl.density_error, (kl, exact)
+    with pytest.raises(ValueError, match="no density and 100 samples, too few"):
+        kl_divergence(Posterior(names=list("abc"), method="emcee", samples=samples[:100], priors=priors))

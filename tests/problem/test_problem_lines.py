@@ -125,15 +125,15 @@ def test_two_lines_need_a_model_with_lines(rng: np.random.Generator) -> None:
         Problem(TwoLineModel(), campaign(rng), "matern32", PRIORS, discrepancy="lines")
 
 
-def test_per_line_noise_and_predictive_refusal(rng: np.random.Generator) -> None:
-    from torchshm.predictive.selection import problem_of
+def test_per_line_noise_and_predictive_view(rng: np.random.Generator) -> None:
+    from torchshm.predictive import prediction_view
 
     p = Problem(TwoLineModel(), campaign(rng), "matern32", PRIORS)
     assert p.sigma_e == {"bottom": 0.2, "top": 0.4}
     assert sorted({(b.line, b.sigma_e) for b in p.blocks}) == [("bottom", 0.2), ("top", 0.4)]
     assert Problem(TwoLineModel(), campaign(rng), "matern32", PRIORS, sigma_e=0.3).sigma_e == 0.3
-    with pytest.raises(ValueError, match=r"posterior predictive: one sensor line .* 2 sensor lines \['bottom', 'top'\]"):
-        problem_of(None, p)
+    view = prediction_view(p)  # the predictive draws each line with its own noise
+    assert [(part.line, part.sigma_e) for part in view.parts] == [("bottom", 0.2), ("top", 0.4)]
 
 
 def test_emulator_method_takes_one_complete_line(rng: np.random.Generator) -> None:

@@ -8,8 +8,12 @@
   names the warnings;
 - ``elbo.png`` (VBMC): the ELBO per iteration; ``trace.png``: mean and 95 % interval of each
   parameter against evaluations, from ``post.history``;
-- ``predictive.csv`` / ``predictive.png``: scores and plot of the held-out load cases;
-- ``run.json``: wall time, evaluations, evidence, convergence, warnings and the settings;
+- ``predictive.csv``: scores of the held-out load cases, per load case and sensor line (rows
+  ``line="all"`` pool the lines); ``predictive.png``: one panel per line and load case, or for
+  a field (`n x 2` coordinates) ``predictive_map_<load>.png`` per held-out load case: measured,
+  predictive mean, 95 % width and where the measurement falls outside;
+- ``run.json``: wall time, evaluations, evidence, convergence, warnings, the KL divergence
+  (and where its density came from) and the settings;
 - ``tb/``: TensorBoard events, written during inference by :func:`torchshm.identify`.
 """
 
@@ -98,13 +102,14 @@ def write_posterior(post: Posterior, out_dir: Path, attrs: Mapping[str, Any],
 def write_predictive(
     post: Posterior, held_out: Measurements | None, n: int, seed: int, out_dir: Path,
 ) -> tuple[list[dict[str, float]], dict[str, Path]]:
-    """Posterior predictive of the held-out load cases: scores per load case and a plot.
+    """Posterior predictive of the held-out load cases: scores per load case and line, and
+    figures (one panel per line, or maps of a field).
 
     A failure here does not fail the run (the posterior is already written): it is logged
     as a warning and no predictive files are written.
     """
     import torchshm
-    from torchshm.predictive import predictive_metrics
+    from torchshm.predictive import metrics_table
 
     log.info("posterior predictive of the held-out load case(s) %s (%d draws)",
              [float(v) for v in held_out.loads], n)
@@ -113,21 +118,24 @@ def write_predictive(
     except ValueError as err:
         log.warning("posterior predictive skipped: %s", err)
         return [], {}
-    rows = []
-    for load in held_out.loads:
-        m = predictive_metrics(pred, held_out, [float(load)])
-        rows.append({"load": float(load), **m.as_dict()})
+    rows = metrics_table(pred, held_out)
     path = out_dir / "predictive.csv"
     with open(path, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
     for row in rows:
-        log.info("held-out load %g m: %.1f %% inside the 95 %% interval, R2 %.3f, MSE %.3g",
-                 row["load"], 100 * row["coverage"], row["r2"], row["mse"])
-    log.info("drawing the posterior predictive figure")
-    return rows, {"predictive": path, "predictive_plot": plots.predictive_plot(
-        pred, held_out, out_dir / "predictive.png")}
+        log.info("held-out load %g m, line %s: %.1f %% inside the 95 %% interval, R2 %.3f, MSE %.3g",
+                 row["load"], row["line"], 100 * row["coverage"], row["r2"], row["mse"])
+    log.info("drawing the posterior predictive figure(s)")
+    files = {"predictive": path}
+    if np.ndim(held_out.x) == 2:
+        for load in held_out.loads:
+            files[f"predictive_map_{float(load):g}"] = plots.predictive_map(
+                pred, held_out, float(load), out_dir / f"predictive_map_{float(load):g}.png")
+    else:
+        files["predictive_plot"] = plots.predictive_plot(pred, held_out, out_dir / "predictive.png")
+    return rows, files
 
 
 def write_run_record(result: Any, settings: Any) -> Path:
@@ -144,6 +152,7 @@ def write_run_record(result: Any, settings: Any) -> Path:
         "warnings": list(post.warnings),
         "summary": post.summary().as_dict(),
         "predictive": result.predictive,
+        "information": information(post),
         "diagnostics": post.diagnostics,
         "settings": dataclasses.asdict(settings),
         "files": {k: str(v) for k, v in result.files.items()},
@@ -151,6 +160,29 @@ def write_run_record(result: Any, settings: Any) -> Path:
     path = result.out_dir / "run.json"
     path.write_text(json.dumps(record, indent=2, default=_jsonable) + "\n")
     return path
+
+
+#: posterior draws of the KL divergence in run.json
+KL_DRAWS = 4000
+
+
+def information(post: Posterior) -> dict[str, Any]:
+    """The KL divergence prior -> posterior (:func:`torchshm.kl_divergence`, with its source)
+    and whether a Bayes factor is defined (the method's log evidence), for ``run.json``.
+
+    A KL that cannot be estimated gets its one-line reason (``kl_reason``) instead.
+    """
+    from torchshm.predictive import kl_divergence
+
+    out: dict[str, Any] = {"evidence": (
+        f"{post.method} log evidence" if post.log_evidence is not None
+        else f"not defined: {post.method} computes no evidence")}
+    try:
+        kl = kl_divergence(post, n=KL_DRAWS, seed=0)
+    except (ValueError, NotImplementedError) as err:
+        return {**out, "kl": None, "kl_reason": str(err)}
+    return {**out, "kl": float(kl), "kl_se": kl.se, "kl_source": kl.source,
+            "kl_density_error": kl.density_error}
 
 
 def _jsonable(value: Any) -> Any:
@@ -163,4 +195,4 @@ def _jsonable(value: Any) -> Any:
     return str(value)
 
 
-__all__ = ["history_traces", "truths_of", "write_posterior", "write_predictive", "write_run_record"]
+__all__ = ["history_traces", "information", "truths_of", "write_posterior", "write_predictive", "write_run_record"]

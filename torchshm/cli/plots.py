@@ -1,4 +1,5 @@
-"""Figures of a run: corner plot, ELBO trace, convergence traces, held-out predictions.
+"""Figures of a run: corner plot, ELBO trace, convergence traces, held-out predictions (one
+panel per sensor line, or maps of a 2-D field).
 
 Every function draws on a fresh figure with the non-interactive Agg backend, saves it to
 ``path`` and closes it, so the functions can run headless and in parallel jobs. Parameter axes
@@ -151,25 +152,84 @@ def trace_plot(
 
 
 def predictive_plot(pred: object, measurements: object, path: Path) -> Path:
-    """Held-out measurements against the posterior predictive mean and interval (Figs. 9-10)."""
+    """Held-out measurements against the posterior predictive mean and interval (Figs. 9-10):
+    one row per load case, one panel per sensor line (positions along the line)."""
     plt = _pyplot()
     loads = [float(v) for v in pred.loads]  # type: ignore[attr-defined]
-    fig, axes = plt.subplots(len(loads), 1, figsize=(8, 2.2 * len(loads) + 0.4), sharex=True,
-                             squeeze=False, constrained_layout=True)
-    x = np.asarray(pred.x)  # type: ignore[attr-defined]
-    for ax, load in zip(axes[:, 0], loads):
+    lines = list(pred.lines)  # type: ignore[attr-defined]
+    fig, axes = plt.subplots(len(loads), len(lines), figsize=(8 * len(lines) ** 0.5, 2.2 * len(loads) + 0.4),
+                             sharex="col", squeeze=False, constrained_layout=True)
+    for row, load in enumerate(loads):
         i = pred.select(load)  # type: ignore[attr-defined]
         y = measurements.select([load])  # type: ignore[attr-defined]
-        ax.plot(y.x, y.y[0], ".", ms=2, color="C1", label="measured")
-        ax.plot(x, np.asarray(pred.mean[i]), color="C0", lw=1, label="predictive mean")  # type: ignore[attr-defined]
-        ax.fill_between(x, np.asarray(pred.lower[i]), np.asarray(pred.upper[i]),  # type: ignore[attr-defined]
-                        color="C0", alpha=0.3, lw=0, label="95 % interval")
-        ax.set_ylabel(f"strain [µε]\nload {load:g} m")
+        for col, line in enumerate(lines):
+            ax = axes[row, col]
+            points = pred.points_of(line)  # type: ignore[attr-defined]
+            mine = slice(None) if line is None else y.line_slices().get(_label(y, line), slice(0, 0))
+            ax.plot(y.x[mine], y.y[0, mine], ".", ms=2, color="C1", label="measured")
+            x = np.asarray(pred.x)[points]  # type: ignore[attr-defined]
+            ax.plot(x, np.asarray(pred.mean[i])[points], color="C0", lw=1, label="predictive mean")  # type: ignore[attr-defined]
+            ax.fill_between(x, np.asarray(pred.lower[i])[points], np.asarray(pred.upper[i])[points],  # type: ignore[attr-defined]
+                            color="C0", alpha=0.3, lw=0, label="95 % interval")
+            if col == 0:
+                ax.set_ylabel(f"strain [µε]\nload {load:g} m")
+            if row == 0 and line is not None:
+                ax.set_title(f"line {line}")
     axes[0, 0].legend(frameon=False, fontsize="small", ncol=3)
-    axes[-1, 0].set_xlabel("x [m]")
+    for ax in axes[-1]:
+        ax.set_xlabel("x [m]")
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
 
 
-__all__ = ["corner_plot", "elbo_plot", "predictive_plot", "trace_plot"]
+def _label(measurements: object, line: str) -> object:
+    """The measurements' own label (int or str) of the prediction's line label (text)."""
+    return next((v for v in measurements.lines if str(v) == str(line)), line)  # type: ignore[attr-defined]
+
+
+def predictive_map(pred: object, measurements: object, load: float, path: Path) -> Path:
+    """A held-out load case of a field (`n x 2` coordinates): four maps of the points.
+
+    Measured strain and predictive mean (one colour scale), the width of the interval, and
+    where the measurement falls outside it (red above, blue below; grey inside).
+    """
+    plt = _pyplot()
+    from torchshm.data.positions import match_on_lines
+    from torchshm.predictive.metrics import aligned
+
+    y = measurements.select([load])  # type: ignore[attr-defined]
+    values, mean, lower, upper = (a[0] for a in aligned(pred, y, [load]))  # type: ignore[arg-type]
+    _, found = match_on_lines(y.x, y.line, np.asarray(pred.x), pred.line)  # type: ignore[attr-defined]
+    xy = np.asarray(y.x)[found]  # the points aligned() compares, in its order
+    valid = np.isfinite(values)
+    above, below = valid & (values > upper), valid & (values < lower)
+    low, high = np.nanmin([values.min(initial=np.inf, where=valid), mean.min()]), np.nanmax(
+        [values.max(initial=-np.inf, where=valid), mean.max()])
+    fig, axes = plt.subplots(2, 2, figsize=(10, 7.5), sharex=True, sharey=True, constrained_layout=True)
+    panels = (("measured [µε]", values, "viridis", (low, high)), ("predictive mean [µε]", mean, "viridis", (low, high)),
+              ("95 % interval width [µε]", upper - lower, "magma", (None, None)))
+    for ax, (title, v, cmap, (vmin, vmax)) in zip(axes.flat, panels):
+        shown = np.isfinite(v)
+        art = ax.scatter(xy[shown, 0], xy[shown, 1], c=v[shown], cmap=cmap, vmin=vmin, vmax=vmax, marker="s", s=60)
+        fig.colorbar(art, ax=ax, shrink=0.85)
+        ax.set_title(title)
+    ax = axes[1, 1]
+    ax.scatter(xy[:, 0], xy[:, 1], c="0.85", marker="s", s=60, label="inside")
+    ax.scatter(xy[above, 0], xy[above, 1], c="C3", marker="s", s=60, label="above")
+    ax.scatter(xy[below, 0], xy[below, 1], c="C0", marker="s", s=60, label="below")
+    ax.set_title(f"outside the interval: {int(above.sum() + below.sum())} of {int(valid.sum())}")
+    ax.legend(frameon=False, fontsize="small", loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    for ax in axes.flat:
+        ax.set_aspect("equal")
+    for ax in axes[-1]:
+        ax.set_xlabel("x [m]")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("y [m]")
+    fig.suptitle(f"held-out load {load:g} m: measured and posterior predictive")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+__all__ = ["corner_plot", "elbo_plot", "predictive_map", "predictive_plot", "trace_plot"]

@@ -7,8 +7,11 @@ Hydra callback :class:`SweepComparison` (listed in ``conf/config.yaml`` under
 - ``comparison.csv`` / ``comparison.md``: one row per job (named by the overrides that set it
   apart from the other jobs, e.g. ``kernel=matern52``): method, ELBO ± sd, log10 Bayes
   factor of the best job over this one with Jeffreys' label (paper, Tables 1 and 9), mean
-  hold-out coverage of the 95 % predictive interval, forward-model runs, convergence, the
-  posterior's warnings (their tags: ``NOT CONVERGED``, ``PRIOR BOUND (E_c upper)``, ...), time;
+  hold-out coverage of the 95 % predictive interval (over the load cases, all lines pooled),
+  forward-model runs, convergence, the posterior's warnings (their tags: ``NOT CONVERGED``,
+  ``PRIOR BOUND (E_c upper)``, ...), time, the KL divergence prior -> posterior with where its
+  density came from (``posterior density`` or ``fitted mixture``, :func:`torchshm.kl_divergence`)
+  and whether a Bayes factor is defined (the method's evidence, or why not);
 - ``bayes_factors.csv``: every pair of jobs with an ELBO (:func:`torchshm.bayes_factors`).
 
 A job without ``run.json`` (it failed) is listed as failed.
@@ -32,7 +35,8 @@ log = logging.getLogger(__name__)
 
 #: columns of comparison.csv
 COLUMNS = ("job", "folder", "method", "elbo", "elbo_sd", "log10_B_best_over_job", "jeffreys",
-           "holdout_coverage", "model_runs", "converged", "warnings", "wall_time_s", "status")
+           "holdout_coverage", "model_runs", "converged", "warnings", "wall_time_s", "status", "kl",
+           "kl_se", "kl_source", "bayes_factor")
 
 
 def job_overrides(folder: Path) -> list[str]:
@@ -66,7 +70,9 @@ def job_row(folder: Path, name: str | None = None) -> dict[str, Any]:
     except (OSError, ValueError):
         row["status"] = "failed"
         return row
-    coverage = [p["coverage"] for p in record.get("predictive") or [] if "coverage" in p]
+    coverage = [p["coverage"] for p in record.get("predictive") or []
+                if "coverage" in p and p.get("line", "all") == "all"]
+    info = record.get("information") or {}
     row.update(
         method=record.get("method", ""),
         elbo=record.get("log_evidence"),
@@ -77,6 +83,10 @@ def job_row(folder: Path, name: str | None = None) -> dict[str, Any]:
         warnings=warning_tags(record.get("warnings") or []),
         wall_time_s=record.get("wall_time_s"),
         status="ok",
+        kl=info.get("kl"),
+        kl_se=info.get("kl_se"),
+        kl_source=info.get("kl_source") or info.get("kl_reason", ""),
+        bayes_factor=info.get("evidence", ""),
     )
     return row
 
@@ -118,8 +128,8 @@ def compare_runs(sweep_dir: Path) -> dict[str, Path]:
 
 def _markdown(rows: list[dict[str, Any]]) -> str:
     head = ("| job | method | ELBO [nats] | log10 B (best / job) | Jeffreys | hold-out coverage "
-            "| model runs | converged | warnings | status |")
-    lines = [head, "|---" * 10 + "|"]
+            "| model runs | converged | warnings | status | KL [nats] | KL from | Bayes factor |")
+    lines = [head, "|---" * 13 + "|"]
     for r in rows:
         elbo = "" if r["elbo"] in ("", None) else f"{r['elbo']:.2f}"
         if elbo and r["elbo_sd"] not in ("", None):
@@ -128,8 +138,14 @@ def _markdown(rows: list[dict[str, Any]]) -> str:
         cov = "" if r["holdout_coverage"] in ("", None) else f"{100 * r['holdout_coverage']:.1f} %"
         lines.append(f"| {r['job']} | {r['method']} | {elbo} | {bf} | {r['jeffreys']} | {cov} "
                      f"| {_cell(r['model_runs'])} | {_cell(r['converged'])} | {r['warnings']} "
-                     f"| {r['status']} |")
+                     f"| {r['status']} | {_kl(r)} | {r['kl_source']} | {r['bayes_factor']} |")
     return "\n".join(lines) + "\n"
+
+
+def _kl(row: dict[str, Any]) -> str:
+    if not isinstance(row["kl"], (int, float)):
+        return ""
+    return f"{row['kl']:.2f}" + (f" ± {row['kl_se']:.2f}" if isinstance(row["kl_se"], (int, float)) else "")
 
 
 def _float(value: Any) -> float:

@@ -71,3 +71,50 @@ def match_positions(wanted: object, available: object, what: str) -> np.ndarray:
             f"to {available.max():g}"
         )
     return index
+
+
+def nearest_point(wanted: object, available: object) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`nearest_index` for points: `k` values or `k x d` coordinates [m] among `m` ones.
+
+    Returns:
+        ``(index, found)`` as :func:`nearest_index`; for coordinates the nearest point in the
+        Euclidean distance, found within :data:`POSITION_TOL`.
+    """
+    wanted, available = np.asarray(wanted, dtype=np.float64), np.asarray(available, dtype=np.float64)
+    if wanted.ndim <= 1 and available.ndim <= 1:
+        return nearest_index(wanted, available)
+    if wanted.ndim != 2 or available.ndim != 2 or wanted.shape[1] != available.shape[1]:
+        raise ValueError(f"points of shape {wanted.shape} and {available.shape} cannot be matched")
+    if available.shape[0] == 0:
+        raise ValueError("nothing to match against: no available positions")
+    from scipy.spatial import cKDTree
+
+    distance, index = cKDTree(available).query(wanted)
+    return np.asarray(index, dtype=np.int64), distance <= POSITION_TOL
+
+
+def match_on_lines(
+    wanted: object, wanted_line: object, available: object, available_line: object
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`nearest_point` line by line: a point matches only a point on the same line.
+
+    Args:
+        wanted, available: `k` and `m` positions [m] or `k x d`, `m x d` coordinates [m].
+        wanted_line, available_line: `k` and `m` line labels (compared as text), or ``None``
+            (one unnamed line: matched against every available point).
+
+    Returns:
+        ``(index, found)``: `k` indices into ``available`` and `k` booleans.
+    """
+    wanted, available = np.asarray(wanted, dtype=np.float64), np.asarray(available, dtype=np.float64)
+    if wanted_line is None or available_line is None:
+        return nearest_point(wanted, available)
+    mine = np.array([str(v) for v in np.asarray(wanted_line).ravel()])
+    theirs = np.array([str(v) for v in np.asarray(available_line).ravel()])
+    index, found = np.zeros(mine.size, dtype=np.int64), np.zeros(mine.size, dtype=bool)
+    for label in dict.fromkeys(mine.tolist()):
+        rows, candidates = np.flatnonzero(mine == label), np.flatnonzero(theirs == label)
+        if candidates.size:
+            i, ok = nearest_point(wanted[rows], available[candidates])
+            index[rows], found[rows] = candidates[i], ok
+    return index, found

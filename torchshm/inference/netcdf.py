@@ -67,8 +67,13 @@ def _sample_stats_group(post: Posterior) -> xr.Dataset:
 
 def _observed_group(post: Posterior) -> xr.Dataset | None:
     meas = getattr(post.problem, "measurements", None)
-    if meas is None:
-        return None
+    return None if meas is None else observed_dataset(meas)
+
+
+def observed_dataset(meas: Any) -> xr.Dataset:
+    """Measurements as the ``observed_data`` group: ``y(load, x)`` [µε] with a ``line(x)``
+    variable for several sensor lines, or ``y(load, point)`` and ``x(point, axis)`` [m] for
+    `n x d` coordinates of a field; ``sigma_e`` in the attributes (JSON when per line)."""
     y = np.asarray(meas.y, dtype=np.float64)
     x = np.asarray(meas.x, dtype=np.float64)
     sigma_e = meas.sigma_e  # one level, or one per sensor line (written as JSON)

@@ -155,9 +155,11 @@ class Posterior:
 
         Groups: ``posterior`` (one variable per parameter, dims ``chain, draw``: emcee's walkers
         are its chains, VBMC's draws one chain), ``sample_stats`` (e.g. emcee's ``lp``) and,
-        when the problem is attached, ``observed_data`` (``y`` [µε], dims ``load, x``). The
-        attributes hold the method, the evidence, the convergence flag and the warnings (a JSON
-        list). Use it with ArviZ's
+        when the problem is attached, ``observed_data`` in the layout of the netCDF file
+        (:func:`~torchshm.inference.netcdf.observed_dataset`: ``y`` [µε] on ``load, x``, with a
+        ``line`` variable for several sensor lines; on ``load, point`` with ``x`` on
+        ``point, axis`` for `n x d` coordinates). The attributes hold the method, the evidence, the convergence flag and the
+        warnings (a JSON list). Use it with ArviZ's
         own functions (``az.summary``, ``az.ess``, ``az.rhat``, ``az.plot_trace``).
         """
         import arviz as az
@@ -166,18 +168,16 @@ class Posterior:
                      for i, n in enumerate(self.names)}
         stats = {k: as_chains(np.asarray(v), self.n_chains) for k, v in self.sample_stats.items()}
         meas = getattr(self.problem, "measurements", None)
-        observed = None if meas is None else {"y": np.asarray(meas.y, dtype=np.float64)}
-        coords = None if meas is None else {"load": np.asarray(meas.loads, dtype=np.float64),
-                                             "x": np.asarray(meas.x, dtype=np.float64)}
         attrs = {"method": self.method, "converged": int(self.converged),
                  "n_model_evaluations": int(self.n_model_evaluations),
                  "warnings": json.dumps(list(self.warnings))}
         if self.log_evidence is not None:
             attrs["log_evidence"] = float(self.log_evidence)
-        idata = az.from_dict(
-            posterior=posterior, sample_stats=stats or None, observed_data=observed,
-            coords=coords, dims=None if meas is None else {"y": ["load", "x"]}, attrs=attrs,
-        )
+        idata = az.from_dict(posterior=posterior, sample_stats=stats or None, attrs=attrs)
+        if meas is not None:
+            from torchshm.inference.netcdf import observed_dataset
+
+            idata.add_groups(observed_data=observed_dataset(meas))
         idata.posterior.attrs.update(attrs)
         return idata
 

@@ -11,12 +11,14 @@ from torchshm.predictive.metrics import (
     PredictiveMetrics,
     coverage,
     mean_interval_width,
+    metrics_table,
     mse,
     predictive_metrics,
     r2_score,
 )
 from torchshm.predictive.predictive import exact_predictive, posterior_predictive, stored_emulator
 from torchshm.predictive.result import PredictiveResult
+from torchshm.predictive.view import PredictionView, prediction_view
 
 __all__ = [
     "JEFFREYS",
@@ -24,6 +26,7 @@ __all__ = [
     "EmulatorCheck",
     "KLEstimate",
     "PredictiveMetrics",
+    "PredictionView",
     "PredictiveResult",
     "bayes_factors",
     "coverage",
@@ -33,9 +36,11 @@ __all__ = [
     "jeffreys_label",
     "kl_divergence",
     "mean_interval_width",
+    "metrics_table",
     "mse",
     "posterior_predictive",
     "predictive_draws",
+    "prediction_view",
     "predictive_metrics",
     "r2_score",
     "stored_emulator",

@@ -17,7 +17,8 @@ import torch
 from torch import Tensor
 
 from torchshm.predictive.predictive import stored_emulator
-from torchshm.predictive.selection import load_index, parameter_columns, position_index, problem_of
+from torchshm.predictive.selection import load_index, parameter_columns, problem_of
+from torchshm.predictive.view import prediction_view
 
 if TYPE_CHECKING:
     from torchshm.inference.protocol import PosteriorLike
@@ -87,12 +88,12 @@ def emulator_check(
     outside = pushed[np.asarray(post.log_pdf(pushed)) < threshold][:n_points]
     emulator = stored_emulator(problem, loads, "measured", seed)
     loads_idx = load_index(problem.model, loads)
-    pos_idx, _ = position_index(problem, "measured")
+    view = prediction_view(problem, "measured")
 
     def responses(theta: np.ndarray) -> tuple[Tensor, Tensor]:
         theta_p = parameter_columns(problem, list(post.names), theta)[0]
         with torch.no_grad():
-            exact = torch.as_tensor(problem.model(theta_p), dtype=torch.float64)[:, loads_idx][:, :, pos_idx]
+            exact = view.apply(torch.as_tensor(problem.model(theta_p), dtype=torch.float64)[:, loads_idx])
             return exact, emulator(theta_p)
 
     return EmulatorCheck(level, boundary, *responses(boundary), outside, *responses(outside))

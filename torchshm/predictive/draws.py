@@ -15,6 +15,8 @@ cases as independent (block-diagonal covariance).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import torch
 from torch import Tensor
@@ -22,6 +24,9 @@ from torch import Tensor
 from torchshm.kernels import Kernel, get_kernel
 from torchshm.kernels.base import as_float64
 from torchshm.likelihood.marginal import Eq21
+
+if TYPE_CHECKING:
+    from torchshm.predictive.view import PredictionView
 
 
 def predictive_draws(
@@ -60,6 +65,46 @@ def predictive_draws(
     ell = as_float64(0.0 if length is None or not kern.has_length else length).expand(sigma_a.shape)
     form = method if method != "auto" or sigma_e > 0 else "dense"
     return Eq21(eta, x, kern, sigma_a, ell, sigma_m, sigma_e, form).sample(generator)
+
+
+def line_draws(
+    view: PredictionView,
+    eta: Tensor,
+    kernel: str | Kernel,
+    sigma_a: Tensor,
+    length: Tensor | None,
+    sigma_m: float,
+    generator: torch.Generator,
+) -> Tensor:
+    """Predictive draws line by line: each line of ``view`` is its own Gaussian of Eq. (21).
+
+    The lines are drawn in order from ``generator`` by :func:`predictive_draws`, each with its
+    own noise and discrepancy group; one line is exactly one call of :func:`predictive_draws`.
+
+    Args:
+        view: the points and lines (:func:`~torchshm.predictive.view.prediction_view`).
+        eta: `N x L' x n` model responses at the points [µε].
+        kernel: the discrepancy kernel.
+        sigma_a: `N x G` discrepancy scales [µε], one column per group.
+        length: `N x G` correlation lengths [m], or ``None`` for a kernel without length.
+        sigma_m: multiplicative model error (dimensionless).
+        generator: source of the standard normal variates.
+
+    Returns:
+        `N x L' x n` draws [µε].
+    """
+    if len(view.parts) == 1 and view.parts[0].points.numel() == eta.shape[-1]:
+        part = view.parts[0]
+        return predictive_draws(eta, view.x, kernel, sigma_a[:, part.group],
+                                None if length is None else length[:, part.group], sigma_m,
+                                part.sigma_e, generator)
+    out = torch.empty_like(eta)
+    for part in view.parts:
+        out[..., part.points] = predictive_draws(
+            eta[..., part.points], view.x[part.points], kernel, sigma_a[:, part.group],
+            None if length is None else length[:, part.group], sigma_m, part.sigma_e, generator,
+        )
+    return out
 
 
 def equal_tailed(samples: Tensor, level: float = 0.95) -> tuple[Tensor, Tensor, Tensor]:

@@ -8,8 +8,13 @@ The paper's extension of VBMC, step by step:
    load cases and positions (:mod:`torchshm.predictive.emulator`);
 3. sample `theta` from the posterior, emulate the model response `eta~` at its physical part,
    adding the emulator's own uncertainty when it is not negligible next to ``sigma_e**2``;
-4. draw `y~ ~ N(eta~, sigma_m**2 diag(eta~)**2 + K~ + sigma_e**2 I)` per load case
-   (:mod:`torchshm.predictive.draws`) and summarise the draws.
+4. draw `y~ ~ N(eta~, sigma_m**2 diag(eta~)**2 + K~ + sigma_e**2 I)` per load case and sensor
+   line (:mod:`torchshm.predictive.draws`) and summarise the draws.
+
+Positions are the problem's one view of the data (:mod:`torchshm.predictive.view`): the
+measured points of every line (exact or interpolated positions, `n x d` coordinates of a
+field) or the model's own positions; the emulator is fitted to the stored outputs mapped onto
+those points.
 
 :func:`exact_predictive` follows the same steps with the same random numbers but evaluates the
 model itself in step 3; it exists to check the emulator and costs `n` model evaluations.
@@ -26,16 +31,11 @@ import torch
 from torch import Tensor
 
 from torchshm.kernels import get_kernel
-from torchshm.predictive.draws import predictive_draws
+from torchshm.predictive.draws import line_draws
 from torchshm.predictive.emulator import fit_emulator, transform_options
 from torchshm.predictive.result import PredictiveResult
-from torchshm.predictive.selection import (
-    load_index,
-    parameter_columns,
-    position_index,
-    problem_of,
-    random_streams,
-)
+from torchshm.predictive.selection import load_index, parameter_columns, problem_of, random_streams
+from torchshm.predictive.view import PredictionView, prediction_view
 from torchshm.surrogate import Surrogate
 
 if TYPE_CHECKING:
@@ -73,16 +73,18 @@ def posterior_predictive(
         seed: seed of the posterior draws and the noise draws (and of the training subset).
         include_surrogate_variance: ``True`` or ``False`` to force; ``"auto"`` adds the emulator
             variance when its largest value at the draws exceeds
-            ``SURROGATE_VARIANCE_RATIO * sigma_e**2``.
-        positions: ``"measured"`` for the problem's measured positions, ``"model"`` for all
-            positions of the forward model.
+            ``SURROGATE_VARIANCE_RATIO * sigma_e**2`` (the smallest line's ``sigma_e``).
+        positions: ``"measured"`` for the problem's measured points (every line; positions
+            interpolated as the problem does; `n x d` coordinates of a field), ``"model"`` for
+            all positions of the forward model (with its ``line`` labels).
         problem: the problem to use instead of ``post.problem`` (e.g. for a loaded posterior).
         level: probability content of the equal-tailed interval.
         emulator_options: keywords of :func:`~torchshm.predictive.emulator.fit_emulator`
             (``transform``, ``kernel``, ...) overriding the defaults.
 
     Returns:
-        A :class:`PredictiveResult` with `L' x n_x` mean and bounds and `n x L' x n_x` draws.
+        A :class:`PredictiveResult` with `L' x n_x` mean and bounds, `n x L' x n_x` draws, the
+        points' ``x`` (`n_x` or `n_x x d`) and ``line`` labels.
 
     Raises:
         ValueError: without a problem, without stored evaluations (e.g. an emcee run whose
@@ -91,8 +93,9 @@ def posterior_predictive(
     if include_surrogate_variance not in ("auto", True, False):
         raise ValueError(f"include_surrogate_variance must be 'auto', True or False, got {include_surrogate_variance!r}")
     problem = problem_of(post, problem)
-    emulator = stored_emulator(problem, loads, positions, seed, emulator_options)
-    x, loads_t = emulator.x, emulator.loads
+    view = prediction_view(problem, positions)
+    emulator = _emulator(problem, view, loads, seed, emulator_options)
+    loads_t = emulator.loads
     streams = random_streams(seed)
     theta = np.asarray(post.sample(n, streams.theta), dtype=np.float64)
     theta_p, sigma_a, length = parameter_columns(problem, list(post.names), theta)
@@ -101,16 +104,17 @@ def posterior_predictive(
     sd = var.clamp_min(0.0).sqrt()
     max_sd = float(sd.max())
     if include_surrogate_variance == "auto":
-        used = max_sd**2 > SURROGATE_VARIANCE_RATIO * float(problem.sigma_e) ** 2
+        smallest = min(part.sigma_e for part in view.parts)  # the quietest line decides
+        used = max_sd**2 > SURROGATE_VARIANCE_RATIO * smallest**2
     else:
         used = bool(include_surrogate_variance)
     if used:
         eta = eta + sd * torch.randn(eta.shape, generator=streams.emulator, dtype=torch.float64)
     logger.info("posterior predictive: drawing %d strain fields at %d load case(s)", n, len(loads_t))
-    samples = _draw(problem, eta, x, sigma_a, length, streams.noise)
+    samples = _draw(problem, view, eta, sigma_a, length, streams.noise)
     return PredictiveResult.from_draws(
-        samples, x, loads_t, level, theta, list(post.names), eta, used, max_sd,
-        int(emulator.theta_p.shape[0]),
+        samples, view.x, loads_t, level, theta, list(post.names), eta, used, max_sd,
+        int(emulator.theta_p.shape[0]), line=view.line,
     )
 
 
@@ -133,18 +137,18 @@ def exact_predictive(
     problem = problem_of(post, problem)
     model = problem.model if model is None else model
     loads_idx = load_index(problem.model, loads)
-    pos_idx, x = position_index(problem, positions)
+    view = prediction_view(problem, positions)
     streams = random_streams(seed)
     theta = np.asarray(post.sample(n, streams.theta), dtype=np.float64)
     theta_p, sigma_a, length = parameter_columns(problem, list(post.names), theta)
     with torch.no_grad():
         out = torch.as_tensor(model(torch.as_tensor(theta_p)), dtype=torch.float64)
-    eta = out[:, loads_idx][:, :, pos_idx]
+    eta = view.apply(out[:, loads_idx])
     logger.info("posterior predictive: drawing %d strain fields at %d load case(s)", n, len(loads_idx))
-    samples = _draw(problem, eta, x, sigma_a, length, streams.noise)
+    samples = _draw(problem, view, eta, sigma_a, length, streams.noise)
     return PredictiveResult.from_draws(
-        samples, x, _loads_tensor(problem.model, loads_idx), level, theta, list(post.names),
-        eta, False, 0.0, 0,
+        samples, view.x, _loads_tensor(problem.model, loads_idx), level, theta, list(post.names),
+        eta, False, 0.0, 0, line=view.line,
     )
 
 
@@ -163,23 +167,33 @@ def stored_emulator(
 
     Returns:
         A :class:`~torchshm.surrogate.Surrogate` whose ``x`` and ``loads`` are the prediction
-        positions and load cases, trained on at most MAX_TRAINING_POINTS stored evaluations.
+        points and load cases (for `n x d` coordinates ``x`` is the point number 0..n-1),
+        trained on at most MAX_TRAINING_POINTS stored evaluations.
     """
+    return _emulator(problem, prediction_view(problem, positions), loads, seed, emulator_options)
+
+
+def _emulator(problem: Problem, view: PredictionView, loads: Iterable[float] | float, seed: int,
+              emulator_options: dict[str, Any] | None) -> Surrogate:
+    """:func:`stored_emulator` at the points of ``view``."""
     loads_idx = load_index(problem.model, loads)
-    pos_idx, x = position_index(problem, positions)
-    theta_train, outputs = _training_data(problem, loads_idx, pos_idx, seed)
+    theta_train, outputs = _training_data(problem, loads_idx, view, seed)
     options = {"transform": transform_options(problem.model),
                "names": list(problem.physical_names), **(emulator_options or {})}
     t0 = time.perf_counter()
     logger.info("posterior predictive: fitting the emulator to %d stored model runs "
                 "(%d load case(s) x %d positions)", *outputs.shape)
+    # the Surrogate keeps `n` positions; points of a field are given by their number
+    x = view.x if view.x.ndim == 1 else torch.arange(view.x.shape[0], dtype=torch.float64)
     emulator = fit_emulator(theta_train, outputs, x, _loads_tensor(problem.model, loads_idx), **options)
     logger.info("posterior predictive: emulator fitted in %.1f s", time.perf_counter() - t0)
     return emulator
 
 
-def _training_data(problem: Problem, loads_idx: Tensor, pos_idx: Tensor, seed: int) -> tuple[Tensor, Tensor]:
-    """Stored `theta_p` (`M x P`) and outputs (`M x L' x n_x`), at most MAX_TRAINING_POINTS."""
+def _training_data(problem: Problem, loads_idx: Tensor, view: PredictionView, seed: int
+                   ) -> tuple[Tensor, Tensor]:
+    """Stored `theta_p` (`M x P`) and outputs at the points (`M x L' x n_x`), at most
+    MAX_TRAINING_POINTS."""
     theta_p, outputs = problem.evaluations()
     theta_p = torch.as_tensor(np.asarray(theta_p), dtype=torch.float64)
     outputs = torch.as_tensor(np.asarray(outputs), dtype=torch.float64)
@@ -192,14 +206,15 @@ def _training_data(problem: Problem, loads_idx: Tensor, pos_idx: Tensor, seed: i
         keep = np.random.default_rng(seed).choice(theta_p.shape[0], MAX_TRAINING_POINTS, replace=False)
         keep = torch.as_tensor(np.sort(keep))
         theta_p, outputs = theta_p[keep], outputs[keep]
-    return theta_p, outputs[:, loads_idx][:, :, pos_idx]
+    return theta_p, view.apply(outputs[:, loads_idx])
 
 
-def _draw(problem: Problem, eta: Tensor, x: Tensor, sigma_a: Tensor, length: Tensor | None,
-          generator: torch.Generator) -> Tensor:
-    """Predictive draws `n x L' x n_x` with the problem's kernel, ``sigma_m`` and ``sigma_e``."""
-    return predictive_draws(eta, x, get_kernel(problem.kernel), sigma_a, length,
-                            float(problem.sigma_m), float(problem.sigma_e), generator)
+def _draw(problem: Problem, view: PredictionView, eta: Tensor, sigma_a: Tensor,
+          length: Tensor | None, generator: torch.Generator) -> Tensor:
+    """Predictive draws `n x L' x n_x`, line by line, with the problem's kernel and ``sigma_m``
+    and each line's ``sigma_e``."""
+    return line_draws(view, eta, get_kernel(problem.kernel), sigma_a, length,
+                      float(problem.sigma_m), generator)
 
 
 def _loads_tensor(model: ForwardModel, loads_idx: Tensor) -> Tensor:

@@ -1,4 +1,4 @@
-"""Small look-ups shared by the predictive functions: load cases, positions, parameters, seeds."""
+"""Small look-ups shared by the predictive functions: load cases, parameters, seeds."""
 
 from __future__ import annotations
 
@@ -23,26 +23,13 @@ def problem_of(post: PosteriorLike, problem: Problem | None) -> Problem:
     """The problem to use: ``problem`` when given, else ``post.problem``.
 
     Raises:
-        ValueError: when neither is available (e.g. a posterior loaded from file), or for a
-            problem of several sensor lines, interpolated positions or `(n, d)` coordinates
-            (not predicted yet).
+        ValueError: when neither is available (e.g. a posterior loaded from file).
     """
     problem = problem if problem is not None else getattr(post, "problem", None)
     if problem is None:
         raise ValueError(
             "the posterior carries no Problem (was it loaded from a file?); pass problem=..."
         )
-    lines = list(getattr(problem.measurements, "lines", (None,)))
-    positions = getattr(problem, "positions", None)
-    model_line = getattr(problem.model, "line", None)
-    if model_line is not None and len(set(np.asarray(model_line).ravel().tolist())) > 1:
-        lines = list(dict.fromkeys(np.asarray(model_line).ravel().tolist()))
-    if len(lines) > 1 or (positions is not None and not positions.exact):
-        what = f"{len(lines)} sensor lines {lines}" if len(lines) > 1 else "interpolated positions"
-        raise ValueError(f"posterior predictive: one sensor line matched exactly only; this problem has {what}")
-    if np.ndim(problem.measurements.x) != 1:
-        raise ValueError("posterior predictive: positions along a line only; this problem's x are "
-                         f"{np.shape(problem.measurements.x)} coordinates of a field")
     return problem
 
 
@@ -65,23 +52,6 @@ def load_index(model: ForwardModel, loads: Iterable[float] | float) -> Tensor:
     return _match(as_numpy(model.loads), wanted, "load case")
 
 
-def position_index(problem: Problem, positions: str) -> tuple[Tensor, Tensor]:
-    """Indices into ``model.x`` and the positions `n_x` [m] of the prediction.
-
-    Args:
-        problem: the problem (``model.x``, ``measurements.x``).
-        positions: ``"measured"`` (the problem's measured positions) or ``"model"`` (all).
-    """
-    model_x = as_numpy(problem.model.x)
-    if positions == "model":
-        index = torch.arange(model_x.size)
-    elif positions == "measured":
-        index = _match(model_x, as_numpy(problem.measurements.x), "position")
-    else:
-        raise ValueError(f"positions must be 'measured' or 'model', got {positions!r}")
-    return index, torch.as_tensor(model_x)[index]
-
-
 def parameter_columns(
     problem: Problem, names: list[str], theta: np.ndarray
 ) -> tuple[Tensor, Tensor, Tensor | None]:
@@ -96,14 +66,17 @@ def parameter_columns(
         theta: `n x D` posterior draws.
 
     Returns:
-        ``theta_p`` (`n x P`, in model order), ``sigma_a`` (`n`) [µε] and ``length`` (`n`) [m],
-        ``None`` for a kernel without length.
+        ``theta_p`` (`n x P`, in model order), ``sigma_a`` (`n x G`) [µε] and ``length``
+        (`n x G`) [m], ``None`` for a kernel without length; one column per discrepancy group
+        (`G` = 1 unless ``discrepancy="per_line"``).
 
     Raises:
         ValueError: naming a parameter that is neither among ``names`` nor fixed.
     """
     split = dataclasses.replace(problem.split, names=tuple(names))
-    theta_p, sigma_a, length = split.split(np.ascontiguousarray(theta, dtype=np.float64))
+    rows = np.ascontiguousarray(theta, dtype=np.float64)
+    theta_p = split.physical(rows)
+    sigma_a, length = split.discrepancy(rows)
     return theta_p.contiguous(), sigma_a.contiguous(), None if length is None else length.contiguous()
 
 
