@@ -156,3 +156,20 @@ def test_emulator_identifies_a_two_fibre_campaign_with_dropouts() -> None:
     for name, truth in (("p0", 1.2), ("p1", -0.6)):
         row = summary[name]
         assert abs(row.mean - truth) < 4 * row.sd + 0.05, (name, row)
+
+
+def test_predictive_draws_use_each_draws_inferred_noise_levels() -> None:
+    from torchshm.inference import Posterior
+
+    problem = problem_of("line", sigma_m=Uniform(0.0, 0.5), sigma_e=Gamma(2.0, 20.0))
+    design = np.array([[1.0, -1.0], [-1.0, 1.0], [1.0, 1.0], [-1.0, -1.0], [0.0, 0.0], [2.0, 0.5]])
+    problem.model_outputs(design)  # stored runs for the predictive's emulator
+    rng = np.random.default_rng(0)
+    spread = {}
+    for level in (0.01, 0.4):
+        samples = np.column_stack([1.2 + 0.01 * rng.standard_normal(400), -0.6 + 0.01 * rng.standard_normal(400),
+                                   np.full(400, 0.01), np.full(400, 1.0), np.full(400, level), np.full(400, 0.05)])
+        post = Posterior(names=list(problem.names), method="emcee", samples=samples, problem=problem)
+        result = torchshm.posterior_predictive(post, loads=[20.0], n=400, seed=1)
+        spread[level] = float(np.mean(np.asarray(result.upper) - np.asarray(result.lower)))
+    assert spread[0.4] > 5 * spread[0.01]  # σm = 0.4 of strains ~1 widens the band

@@ -35,8 +35,8 @@ def predictive_draws(
     kernel: str | Kernel,
     sigma_a: object,
     length: object | None,
-    sigma_m: float,
-    sigma_e: float,
+    sigma_m: float | Tensor,
+    sigma_e: float | Tensor,
     generator: torch.Generator,
     method: str = "auto",
 ) -> Tensor:
@@ -63,7 +63,8 @@ def predictive_draws(
     kern = get_kernel(kernel)
     eta, x, sigma_a = as_float64(eta), as_float64(x), as_float64(sigma_a)
     ell = as_float64(0.0 if length is None or not kern.has_length else length).expand(sigma_a.shape)
-    form = method if method != "auto" or sigma_e > 0 else "dense"
+    positive = bool(torch.all(torch.as_tensor(sigma_e) > 0))
+    form = method if method != "auto" or positive else "dense"
     return Eq21(eta, x, kern, sigma_a, ell, sigma_m, sigma_e, form).sample(generator)
 
 
@@ -73,8 +74,9 @@ def line_draws(
     kernel: str | Kernel,
     sigma_a: Tensor,
     length: Tensor | None,
-    sigma_m: float,
+    sigma_m: float | Tensor,
     generator: torch.Generator,
+    sigma_e_scale: Tensor | None = None,
 ) -> Tensor:
     """Predictive draws line by line: each line of ``view`` is its own Gaussian of Eq. (21).
 
@@ -87,22 +89,26 @@ def line_draws(
         kernel: the discrepancy kernel.
         sigma_a: `N x G` discrepancy scales [µε], one column per group.
         length: `N x G` correlation lengths [m], or ``None`` for a kernel without length.
-        sigma_m: multiplicative model error (dimensionless).
+        sigma_m: multiplicative model error (dimensionless): a number or `N` inferred values.
         generator: source of the standard normal variates.
+        sigma_e_scale: `N` factors on every line's noise sd (an inferred σe), or None.
 
     Returns:
         `N x L' x n` draws [µε].
     """
+    def noise(part: object) -> float | Tensor:
+        return part.sigma_e if sigma_e_scale is None else part.sigma_e * sigma_e_scale  # type: ignore[attr-defined]
+
     if len(view.parts) == 1 and view.parts[0].points.numel() == eta.shape[-1]:
         part = view.parts[0]
         return predictive_draws(eta, view.x, kernel, sigma_a[:, part.group],
                                 None if length is None else length[:, part.group], sigma_m,
-                                part.sigma_e, generator)
+                                noise(part), generator)
     out = torch.empty_like(eta)
     for part in view.parts:
         out[..., part.points] = predictive_draws(
             eta[..., part.points], view.x[part.points], kernel, sigma_a[:, part.group],
-            None if length is None else length[:, part.group], sigma_m, part.sigma_e, generator,
+            None if length is None else length[:, part.group], sigma_m, noise(part), generator,
         )
     return out
 

@@ -103,15 +103,18 @@ def posterior_predictive(
         eta, var = emulator.predict(theta_p)
     sd = var.clamp_min(0.0).sqrt()
     max_sd = float(sd.max())
+    sigma_m, _, _, sigma_e_scale = problem.noise_of(torch.as_tensor(theta))
     if include_surrogate_variance == "auto":
         smallest = min(part.sigma_e for part in view.parts)  # the quietest line decides
+        if sigma_e_scale is not None:  # an inferred σe: its smallest draw
+            smallest *= float(sigma_e_scale.min())
         used = max_sd**2 > SURROGATE_VARIANCE_RATIO * smallest**2
     else:
         used = bool(include_surrogate_variance)
     if used:
         eta = eta + sd * torch.randn(eta.shape, generator=streams.emulator, dtype=torch.float64)
     logger.info("posterior predictive: drawing %d strain fields at %d load case(s)", n, len(loads_t))
-    samples = _draw(problem, view, eta, sigma_a, length, streams.noise)
+    samples = _draw(problem, view, eta, theta, sigma_a, length, streams.noise)
     return PredictiveResult.from_draws(
         samples, view.x, loads_t, level, theta, list(post.names), eta, used, max_sd,
         int(emulator.theta_p.shape[0]), line=view.line,
@@ -145,7 +148,7 @@ def exact_predictive(
         out = torch.as_tensor(model(torch.as_tensor(theta_p)), dtype=torch.float64)
     eta = view.apply(out[:, loads_idx])
     logger.info("posterior predictive: drawing %d strain fields at %d load case(s)", n, len(loads_idx))
-    samples = _draw(problem, view, eta, sigma_a, length, streams.noise)
+    samples = _draw(problem, view, eta, theta, sigma_a, length, streams.noise)
     return PredictiveResult.from_draws(
         samples, view.x, _loads_tensor(problem.model, loads_idx), level, theta, list(post.names),
         eta, False, 0.0, 0, line=view.line,
@@ -209,12 +212,13 @@ def _training_data(problem: Problem, loads_idx: Tensor, view: PredictionView, se
     return theta_p, view.apply(outputs[:, loads_idx])
 
 
-def _draw(problem: Problem, view: PredictionView, eta: Tensor, sigma_a: Tensor,
+def _draw(problem: Problem, view: PredictionView, eta: Tensor, theta: np.ndarray, sigma_a: Tensor,
           length: Tensor | None, generator: torch.Generator) -> Tensor:
-    """Predictive draws `n x L' x n_x`, line by line, with the problem's kernel and ``sigma_m``
-    and each line's ``sigma_e``."""
-    return line_draws(view, eta, get_kernel(problem.kernel), sigma_a, length,
-                      float(problem.sigma_m), generator)
+    """Predictive draws `n x L' x n_x`, line by line, with the problem's kernel, ``sigma_m``
+    and each line's ``sigma_e`` (per posterior draw `theta` `n x D` where they are inferred)."""
+    sigma_m, _, _, sigma_e_scale = problem.noise_of(torch.as_tensor(theta))
+    return line_draws(view, eta, get_kernel(problem.kernel), sigma_a, length, sigma_m, generator,
+                      sigma_e_scale)
 
 
 def _loads_tensor(model: ForwardModel, loads_idx: Tensor) -> Tensor:

@@ -87,7 +87,7 @@ def prediction_view(problem: Problem, positions: str = "measured") -> Prediction
         x = torch.as_tensor(np.asarray(meas.x, dtype=np.float64))
         parts = [(label, np.arange(part.start, part.stop)) for label, part in meas.line_slices().items()]
         line = None if meas.line is None else _labels(meas.line)
-        return PredictionView(x, line, problem.positions, _parts(parts, groups, problem.sigma_e))
+        return PredictionView(x, line, problem.positions, _parts(parts, groups, _noise(problem)))
     if positions != "model":
         raise ValueError(f"positions must be 'measured' or 'model', got {positions!r}")
     model = problem.model
@@ -95,14 +95,14 @@ def prediction_view(problem: Problem, positions: str = "measured") -> Prediction
     model_line = getattr(model, "line", None)
     everything = PositionMap(np.arange(x.shape[0]))
     if model_line is None:
-        return PredictionView(x, None, everything, _parts([(None, np.arange(x.shape[0]))], groups, problem.sigma_e))
+        return PredictionView(x, None, everything, _parts([(None, np.arange(x.shape[0]))], groups, _noise(problem)))
     line = _labels(model_line)
     order = list(dict.fromkeys(line.tolist()))
     if len(order) == 1 and len(groups) == 1:  # one line, measured unnamed or by its name
         parts = [(next(iter(groups)), np.arange(x.shape[0]))]
-        return PredictionView(x, line, everything, _parts(parts, groups, problem.sigma_e, order[0]))
+        return PredictionView(x, line, everything, _parts(parts, groups, _noise(problem), order[0]))
     parts = [(label, np.flatnonzero(line == label)) for label in order]
-    return PredictionView(x, line, everything, _parts(parts, groups, problem.sigma_e))
+    return PredictionView(x, line, everything, _parts(parts, groups, _noise(problem)))
 
 
 def _parts(parts: list[tuple[object, np.ndarray]], groups: Mapping[object, int],
@@ -131,3 +131,8 @@ def _key(label: object) -> object:
 def _labels(line: object) -> np.ndarray:
     """`n` line labels as strings."""
     return np.array([str(v) for v in np.asarray(line).ravel()], dtype=object)
+
+
+def _noise(problem: Problem) -> Mapping[object, float] | float:
+    """The lines' noise sd [µε]; 1 when σe is inferred (each draw then scales it by its own)."""
+    return 1.0 if hasattr(problem.sigma_e, "log_prob") else problem.sigma_e
