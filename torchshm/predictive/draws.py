@@ -24,6 +24,10 @@ from torch import Tensor
 from torchshm.kernels import Kernel, get_kernel
 from torchshm.kernels.base import as_float64
 from torchshm.likelihood.marginal import Eq21
+from torchshm.likelihood.statespace import is_markov
+
+#: 1-D lines of a Markov kernel from this many points are drawn by the O(n) state space
+STATE_SPACE_FROM = 64
 
 if TYPE_CHECKING:
     from torchshm.predictive.view import PredictionView
@@ -99,16 +103,25 @@ def line_draws(
     def noise(part: object) -> float | Tensor:
         return part.sigma_e if sigma_e_scale is None else part.sigma_e * sigma_e_scale  # type: ignore[attr-defined]
 
+    kern = get_kernel(kernel)
+
+    def form(x: Tensor, part: object) -> str:
+        """The O(n) state space for 1-D lines of a Markov kernel from STATE_SPACE_FROM points
+        (a batch of draws gains from it far below the likelihood's one-vector threshold)."""
+        markov = x.ndim == 1 and is_markov(kern) and part.sigma_e > 0  # type: ignore[attr-defined]
+        return "state_space" if markov and x.shape[0] >= STATE_SPACE_FROM else "auto"
+
     if len(view.parts) == 1 and view.parts[0].points.numel() == eta.shape[-1]:
         part = view.parts[0]
         return predictive_draws(eta, view.x, kernel, sigma_a[:, part.group],
                                 None if length is None else length[:, part.group], sigma_m,
-                                noise(part), generator)
+                                noise(part), generator, form(view.x, part))
     out = torch.empty_like(eta)
     for part in view.parts:
         out[..., part.points] = predictive_draws(
             eta[..., part.points], view.x[part.points], kernel, sigma_a[:, part.group],
             None if length is None else length[:, part.group], sigma_m, noise(part), generator,
+            form(view.x[part.points], part),
         )
     return out
 

@@ -103,7 +103,7 @@ def posterior_predictive(
         eta, var = emulator.predict(theta_p)
     sd = var.clamp_min(0.0).sqrt()
     max_sd = float(sd.max())
-    sigma_m, _, _, sigma_e_scale = problem.noise_of(torch.as_tensor(theta))
+    sigma_m, sigma_e_scale = _noise_levels(problem, theta)
     if include_surrogate_variance == "auto":
         smallest = min(part.sigma_e for part in view.parts)  # the quietest line decides
         if sigma_e_scale is not None:  # an inferred σe: its smallest draw
@@ -216,9 +216,19 @@ def _draw(problem: Problem, view: PredictionView, eta: Tensor, theta: np.ndarray
           length: Tensor | None, generator: torch.Generator) -> Tensor:
     """Predictive draws `n x L' x n_x`, line by line, with the problem's kernel, ``sigma_m``
     and each line's ``sigma_e`` (per posterior draw `theta` `n x D` where they are inferred)."""
-    sigma_m, _, _, sigma_e_scale = problem.noise_of(torch.as_tensor(theta))
+    sigma_m, sigma_e_scale = _noise_levels(problem, theta)
     return line_draws(view, eta, get_kernel(problem.kernel), sigma_a, length, sigma_m, generator,
                       sigma_e_scale)
+
+
+def _noise_levels(problem: Problem, theta: np.ndarray) -> tuple[float | Tensor, Tensor | None]:
+    """σm (a number, or `n` inferred values) and the `n` inferred σe factors (or None) of the
+    posterior draws ``theta`` `n x D` (:meth:`Problem.noise_of`; a problem-like object without
+    it has fixed levels)."""
+    if not hasattr(problem, "noise_of"):
+        return float(problem.sigma_m), None
+    sigma_m, _, _, sigma_e_scale = problem.noise_of(torch.as_tensor(theta))
+    return sigma_m, sigma_e_scale
 
 
 def _loads_tensor(model: ForwardModel, loads_idx: Tensor) -> Tensor:
