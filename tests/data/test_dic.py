@@ -119,3 +119,16 @@ def test_malformed_exports_are_named(tmp_path: Path) -> None:
         read_dic({1.0: tmp_path / "d.txt"}, columns={"exx": "a"})
     with pytest.raises(FileNotFoundError):
         read_dic(str(tmp_path / "none_*.txt"), [1.0])
+
+
+def test_command_line_data_options(dice_files: list[Path]) -> None:
+    """``data.format=dic``, ``data.path`` a glob relative to the run directory, ``data.dic`` the options."""
+    from torchshm.cli.job import load_data
+    from torchshm.config import DataConfig
+
+    base = dice_files[0].parent
+    m = load_data(DataConfig(path="DICe_solution_*", format="dic", resolution=None,
+                             dic={"loads": [0.5, 1.0], "scale": 1e-3, "sigma_e": 30.0}), base)
+    assert m.n == 6 and m.n_missing == 3 and m.sigma_e == 30.0
+    with pytest.raises(ValueError, match="data.dic applies to format=dic"):
+        load_data(DataConfig(path="DICe_solution_0.txt", format="csv", dic={"scale": 1.0}), base)
