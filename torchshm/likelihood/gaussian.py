@@ -52,21 +52,25 @@ def log_likelihood(
     draws sample from. For the Markov kernels (``exponential``, ``matern32``, ``matern52``) from
     :data:`~torchshm.likelihood.marginal.STATE_SPACE_FROM` points per load case, the exact
     density is computed from the kernel's state-space form in O(n) time and memory instead
-    (any sorted or unsorted positions, repeats allowed; ``docs/likelihood.md``). Both forms are
-    differentiable by autograd, on CPU and CUDA tensors.
+    (any sorted or unsorted positions, repeats allowed; ``docs/likelihood.md``). For fields of
+    `n x d` coordinates from :data:`~torchshm.likelihood.marginal.VECCHIA_FROM` points per load
+    case, the nearest-neighbour (Vecchia) approximation is used instead of the dense covariance
+    (:mod:`torchshm.likelihood.vecchia`; its measured error is in ``docs/likelihood.md``). All
+    forms are differentiable by autograd, on CPU and CUDA tensors.
 
     Args:
         y: `L x n` measured strains [µε].
         eta: `... x L x n` model predictions [µε] (differentiable).
-        x: `n` positions [m], or `n x d` coordinates [m] of a field (dense covariance of a
-            kernel that takes coordinates; see :mod:`torchshm.likelihood.blocks`).
+        x: `n` positions [m], or `n x d` coordinates [m] of a field (a kernel of the Euclidean
+            distance; dense or Vecchia form, see :mod:`torchshm.likelihood.blocks`).
         kernel: a name from :data:`torchshm.kernels.KERNELS` or a :class:`Kernel`.
         sigma_a: discrepancy scale [µε], broadcastable to `...` (differentiable).
         length: correlation length [m], broadcastable to `...` (differentiable); ignored (may
             be ``None``) for a kernel without length such as ``independent``.
         sigma_m: standard deviation of the multiplicative model error (dimensionless), >= 0.
         sigma_e: standard deviation of the measurement noise [µε], >= 0.
-        method: ``"auto"`` (default), ``"dense"`` or ``"state_space"``.
+        method: ``"auto"`` (default), ``"dense"``, ``"state_space"`` (1-D positions) or
+            ``"vecchia"`` (`n x d` coordinates).
 
     Returns:
         `...` log-likelihoods (float64 tensor; the batch shape is the broadcast of `eta`'s,
