@@ -132,3 +132,11 @@ def test_command_line_data_options(dice_files: list[Path]) -> None:
     assert m.n == 6 and m.n_missing == 3 and m.sigma_e == 30.0
     with pytest.raises(ValueError, match="data.dic applies to format=dic"):
         load_data(DataConfig(path="DICe_solution_0.txt", format="csv", dic={"scale": 1.0}), base)
+
+
+def test_every_thins_the_grid(dice_files: list[Path]) -> None:
+    m = read_dic({0.5: dice_files[0], 1.0: dice_files[1]}, scale=1e-3, origin=(100, 50), every=2)
+    np.testing.assert_allclose(m.x, [[0, 0], [0.02, 0]], atol=1e-12)
+    np.testing.assert_allclose(m.y[0], [100.0, 300.0], rtol=1e-12)
+    with pytest.raises(ValueError, match="every must be"):
+        read_dic({0.5: dice_files[0]}, every=0)

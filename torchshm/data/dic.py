@@ -64,6 +64,7 @@ def read_dic(
     scale: float = 1.0,
     origin: Sequence[float] = (0.0, 0.0),
     strain_scale: float = 1e6,
+    every: int = 1,
     sigma_e: float = 0.1,
     attrs: Mapping[str, object] | None = None,
 ) -> Measurements:
@@ -83,6 +84,8 @@ def read_dic(
         scale: metres per coordinate unit (e.g. the pixel size in m).
         origin: the file coordinates ``(x0, y0)`` put at (0, 0) m.
         strain_scale: µε per strain unit of the file (1e6 for m/m, 1e4 for %).
+        every: keep every ``every``-th distinct x and y value of the points (from the first):
+            a grid thinned ``every`` times in each direction (1: every point).
         sigma_e, attrs: as for :class:`Measurements`.
 
     Returns:
@@ -117,7 +120,9 @@ def read_dic(
         if not np.isfinite(values).any():
             raise ValueError(f"{f}: no valid subset (load {load:g}); check the 'valid' column and valid_min")
         images.append((np.round(xy / ROUND_M) * ROUND_M, values, f))
-    return _assemble(images, list(files), strains, sigma_e, attrs)
+    if int(every) != every or every < 1:
+        raise ValueError(f"read_dic: every must be a whole number >= 1, got {every!r}")
+    return _assemble(images, list(files), strains, int(every), sigma_e, attrs)
 
 
 def _pair(path: object, loads: Sequence[float] | None) -> dict[float, Path]:
@@ -133,10 +138,15 @@ def _pair(path: object, loads: Sequence[float] | None) -> dict[float, Path]:
     return {float(v): f for v, f in zip(loads, files)}
 
 
-def _assemble(images: list, loads: list[float], strains: list[str], sigma_e: float,
+def _assemble(images: list, loads: list[float], strains: list[str], every: int, sigma_e: float,
               attrs: Mapping[str, object] | None) -> Measurements:
     """One field: the union of the images' points, sorted by x then y; NaN where a point is absent."""
     points = np.unique(np.concatenate([xy for xy, _, _ in images]), axis=0)
+    if every > 1:
+        rank = [np.searchsorted(np.unique(points[:, a]), points[:, a]) for a in (0, 1)]
+        points = points[(rank[0] % every == 0) & (rank[1] % every == 0)]
+        images = [(xy[keep], values[:, keep], f) for xy, values, f in images
+                  for keep in [np.isin(xy.view(complex).ravel(), points.view(complex).ravel())]]
     y = np.full((len(strains), len(loads), points.shape[0]), np.nan)
     for i, (xy, values, f) in enumerate(images):
         where = _rows_of(xy, points)

@@ -86,22 +86,19 @@ def read_table(path: str | Path, wanted: list[str]) -> dict[str, np.ndarray]:
     body = "\n".join(line for line in lines[start + 1:] if line.strip())
     if not body:
         raise ValueError(f"{path}: no data rows after the header (line {start + 1})")
+    import pandas as pd
+
     try:
-        table = np.loadtxt(
-            io.StringIO(body), delimiter=sep, usecols=index, ndmin=2, dtype=np.float64,
-            converters={i: _number for i in index}, encoding=None,
-        )
+        frame = pd.read_csv(io.StringIO(body), sep=sep or r"\s+", header=None, usecols=index,
+                            skipinitialspace=True, dtype=str, keep_default_na=False, engine="c" if sep else "python")
+        table = frame[index].apply(lambda c: c.str.strip().str.strip("\"'").replace("", "nan").astype(np.float64)) \
+            .to_numpy(dtype=np.float64)
     except ValueError as err:
         raise ValueError(f"{path}: a row after line {start + 1} is malformed ({err})") from None
     if np.isinf(table).any():
         row = int(np.argwhere(np.isinf(table))[0][0])
         raise ValueError(f"{path}: an infinite value in data row {row + 1}")
     return {w: table[:, c] for c, w in enumerate(wanted)}
-
-
-def _number(cell: str) -> float:
-    cell = cell.strip().strip("\"'")
-    return float(cell) if cell else np.nan
 
 
 __all__ = ["normalise", "read_table"]
