@@ -53,6 +53,8 @@ VECCHIA_FROM = 5000
 SAMPLE_CHUNK_BYTES = 2**21
 #: share of the physical memory that dense covariances may take before they are refused
 DENSE_MEMORY_SHARE = 0.5
+#: messages given once per process
+_SAID = {"vecchia": False}
 
 
 def covariance(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: Tensor) -> Tensor:
@@ -101,6 +103,13 @@ def choose_method(
         raise ValueError("method='vecchia' is for n x d coordinates (d >= 2); positions along a line "
                          "use 'state_space' or 'dense'")
     if method == "vecchia" or (method == "auto" and dim > 1 and n >= VECCHIA_FROM):
+        if method == "auto" and not _SAID["vecchia"]:
+            _SAID["vecchia"] = True
+            logger.warning(
+                "%d points per load case of a %d-D field: the likelihood is the Vecchia approximation "
+                "(m = %d neighbours), whose error grows with the correlation length in pitches; see "
+                "docs/likelihood.md", n, dim, vecchia.neighbour_count(kern),
+            )
         return "vecchia"
     need, have = 2 * 8 * n * n, _physical_memory()
     if need > DENSE_MEMORY_SHARE * have:
