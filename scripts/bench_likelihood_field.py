@@ -2,7 +2,7 @@
 
 Two parts, run by ``scripts/bench_likelihood.py --only-field`` (or this file directly):
 
-- error: |Δ log-likelihood| of the Vecchia form (m = 10, the default, and m = 30) against the
+- error: |Δ log-likelihood| of the Vecchia form (m = 10, the default, 20 and 30) against the
   exact dense value, over the priors' range (σa 0.2 and 5 µε, l = 0.02, 0.2 and 1 × the field
   size, σe 0.05 and 1 µε, σm 0 and 0.05), on a `side x side` grid of a unit square, with y drawn
   from the exact Gaussian and a heteroscedastic diagonal (η uniform in 20..100 µε);
@@ -12,7 +12,8 @@ Two parts, run by ``scripts/bench_likelihood.py --only-field`` (or this file dir
   per point set), one call, and beside it at 10^4 the dense path, scikit-learn's exact
   ``GaussianProcessRegressor.log_marginal_likelihood`` (the same kernel and diagonal) and a
   plain numpy computation of the same Vecchia sum on the same conditioning sets (the
-  reference of the value; written for this benchmark, batched ``numpy.linalg.cholesky``).
+  reference of the value; written for this benchmark, batched ``numpy.linalg.cholesky``);
+  then one predictive draw of the field (``Eq21.sample``, sparse triangular solve).
 
 Usage::
 
@@ -55,8 +56,8 @@ def error(side: int, seed: int, corners: bool = False) -> None:
     rng = np.random.default_rng(seed)
     eta = torch.as_tensor(rng.uniform(20.0, 100.0, (1, n)))
     print(f"\n{n:,} points ({side} x {side} grid of the unit square): Vecchia − dense [nat]\n")
-    print("| kernel | σa [µε] | l | σe [µε] | σm | m = 10 | m = 30 |")
-    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+    print("| kernel | σa [µε] | l | σe [µε] | σm | m = 10 | m = 20 | m = 30 |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for name in KERNELS:
         kern = get_kernel(name)
         grid_ = itertools.product((0.2, 5.0), (0.02, 0.2, 1.0), (0.05, 1.0), (0.0, 0.05))
@@ -71,11 +72,11 @@ def error(side: int, seed: int, corners: bool = False) -> None:
             # the exact dense log density from the same factor (what method="dense" computes)
             exact = -0.5 * (z.square().sum() + 2.0 * chol.diagonal().log().sum() + n * math.log(2.0 * math.pi))
             cells = []
-            for m in (10, 30):
+            for m in (10, 20, 30):
                 vecchia.NEIGHBOURS[name] = m
                 cells.append(float(torchshm.log_likelihood(y, eta, x, name, sa, ell, sm, se, method="vecchia") - exact))
             vecchia.NEIGHBOURS[name] = vecchia.DEFAULT_NEIGHBOURS
-            print(f"| {name} | {sa} | {ell} | {se} | {sm} | {cells[0]:+.3f} | {cells[1]:+.3f} |", flush=True)
+            print(f"| {name} | {sa} | {ell} | {se} | {sm} | " + " | ".join(f"{c:+.3f}" for c in cells) + " |", flush=True)
 
 
 def numpy_vecchia(y: np.ndarray, eta: np.ndarray, xy: np.ndarray, plan: neighbours.Plan) -> float:
@@ -118,6 +119,10 @@ def one_size(side: int, seed: int) -> None:
             value = float(torchshm.log_likelihood(yt, et, x, "matern32", SA, LENGTH, SM, SE, method="vecchia"))
         rows.append(("`torchshm.log_likelihood`, method='vecchia' (m = 10)", time.perf_counter() - start, time.process_time() - start_cpu, f"{value:.3f}"))
     del rows[1]  # the first call after the plan
+    gaussian = marginal.Eq21(et[None], x, get_kernel("matern32"), torch.tensor([SA]), torch.tensor([LENGTH]), SM, SE, "vecchia")
+    start_cpu, start = time.process_time(), time.perf_counter()
+    draw = gaussian.sample(torch.Generator().manual_seed(seed))
+    rows.append(("one predictive draw, `Eq21.sample` (Vecchia, m = 10)", time.perf_counter() - start, time.process_time() - start_cpu, f"sd {float((draw - et).std()):.3f}"))
     peak = _peak_rss_bytes()
     if n <= 10_000:
         rows += _references(xy, y, eta, x, yt, et, plan)
