@@ -28,8 +28,10 @@ import numpy as np
 from scipy.spatial import cKDTree
 from scipy.spatial.distance import cdist
 
-#: plans kept (point sets x neighbour counts); a plan at 10^6 points and m = 10 takes ~540 MB
-PLANS_KEPT = 2
+#: memory [bytes] of the plans kept (one per point set and neighbour count: a field whose
+#: load cases lose different subsets has one per load case); a plan of 10^6 points with m = 10
+#: takes ~540 MB, of 10^5 points ~54 MB; the newest plan is always kept
+PLANS_BYTES = 2**31
 _PLANS: OrderedDict[tuple[bytes, int], Plan] = OrderedDict()
 
 
@@ -50,6 +52,11 @@ class Plan:
     lower: np.ndarray
 
     @property
+    def nbytes(self) -> int:
+        """Memory of the plan's arrays [bytes]."""
+        return self.order.nbytes + self.blocks.nbytes + self.lower.nbytes
+
+    @property
     def neighbours(self) -> int:
         """``m``, the number of conditioning points per row."""
         return self.blocks.shape[1] - 1
@@ -68,7 +75,7 @@ def plan(x: np.ndarray, m: int) -> Plan:
     blocks = np.concatenate([previous, np.arange(x.shape[0])[:, None]], axis=1)
     made = Plan(order, blocks, lower_distances(x[order], blocks))
     _PLANS[key] = made
-    while len(_PLANS) > PLANS_KEPT:
+    while len(_PLANS) > 1 and sum(p.nbytes for p in _PLANS.values()) > PLANS_BYTES:
         _PLANS.popitem(last=False)
     return made
 
