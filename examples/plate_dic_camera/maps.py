@@ -68,9 +68,13 @@ def plot(maps: dict[str, np.ndarray], load: float, path: Path) -> float:
               ("predictive mean [µε]", maps["mean"], "RdBu_r", (-lim, lim)),
               ("predictive sd [µε]", maps["sd"], "viridis", (None, None)),
               (f"(measured - mean) / sd: {100 * inside:.1f} % within ±1.96", z, "RdBu_r", (-4, 4))]
+    xs, ys = np.unique(maps["x"][:, 0]), np.unique(maps["x"][:, 1])
+    ix, iy = np.searchsorted(xs, maps["x"][:, 0]), np.searchsorted(ys, maps["x"][:, 1])
+    extent = (xs[0], xs[-1], ys[0], ys[-1])
     for ax, (title, values, cmap, (lo, hi)) in zip(axes.flat, panels):
-        art = ax.scatter(maps["x"][:, 0], maps["x"][:, 1], c=values, s=0.4, marker="s", cmap=cmap,
-                         vmin=lo, vmax=hi, linewidths=0, rasterized=True)
+        image = np.full((ys.size, xs.size), np.nan)
+        image[iy, ix] = values  # lost subsets stay blank
+        art = ax.imshow(image, origin="lower", extent=extent, cmap=cmap, vmin=lo, vmax=hi, interpolation="nearest")
         ax.set_title(title, fontsize=10)
         ax.set_aspect("equal")
         fig.colorbar(art, ax=ax, shrink=0.8)

@@ -50,7 +50,7 @@ def test_readme_commands_run_with_a_tiny_budget(tmp_path: Path) -> None:
     result = run(["-m", "torchshm.cli.identify", *identify[1:-1], *BUDGET, f"hydra.run.dir={out}"])
     assert result.returncode == 0, result.stderr[-3000:]
     record = json.loads((out / "run.json").read_text())
-    assert record["names"] == ["E", "log10_k", "sigma_a", "length"]
+    assert record["names"] == ["E", "log10_k", "sigma_a"]  # kernel=independent: no length
     assert (out / "posterior.nc").is_file()
     result = run([maps[1], str(out), *maps[3:], "--draws", "20"])
     assert result.returncode == 0, result.stderr[-3000:]
