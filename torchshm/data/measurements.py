@@ -272,10 +272,12 @@ def load_measurements(
 
         field = read_dic(path, **options)  # type: ignore[arg-type]
         if missing == "error" and field.n_missing:
-            raise ValueError(f"load_measurements: {field.n_missing} lost or absent DIC subset(s); use missing='mask'")
+            raise ValueError(f"load_measurements: {field.n_missing} lost or absent DIC subset(s); "
+                             "use missing='mask'")
         return field
     if options:
-        raise TypeError(f"load_measurements: options {sorted(options)} apply to format='odisi' or 'dic' only")
+        raise TypeError(f"load_measurements: options {sorted(options)} apply to format='odisi' only "
+                        "(format='dic' has its own)")
     if isinstance(path, Mapping):
         raise TypeError("load_measurements: one file per load case needs format='odisi' or 'dic'")
     return tables.load(Path(path), format, missing)
