@@ -18,7 +18,7 @@ Two parts, run by ``scripts/bench_likelihood.py --only-field`` (or this file dir
 Usage::
 
     OMP_NUM_THREADS=1 python scripts/bench_likelihood_field.py [--side 50] [--corners]
-        [--error-only | --scaling-only]
+        [--error-only | --scaling-only | --posterior-only]
 """
 
 from __future__ import annotations
@@ -77,6 +77,30 @@ def error(side: int, seed: int, corners: bool = False) -> None:
                 cells.append(float(torchshm.log_likelihood(y, eta, x, name, sa, ell, sm, se, method="vecchia") - exact))
             vecchia.NEIGHBOURS[name] = vecchia.DEFAULT_NEIGHBOURS
             print(f"| {name} | {sa} | {ell} | {se} | {sm} | " + " | ".join(f"{c:+.3f}" for c in cells) + " |", flush=True)
+
+
+def posterior_grid(seed: int) -> None:
+    """Grid posterior of (log σa, log l) under a flat prior, dense against Vecchia (m = 10):
+    2,500 points, y drawn at σa = 1 µε, l = 0.1, σe = 0.1 µε, σm = 0.05; 13 x 13 grid,
+    σa 0.3..3 µε, l 0.03..0.3 (log-spaced)."""
+    x = torch.as_tensor(grid(50))
+    rng = np.random.default_rng(seed)
+    sa = np.exp(np.linspace(np.log(0.3), np.log(3.0), 13))
+    ell = np.exp(np.linspace(np.log(0.03), np.log(0.3), 13))
+    s_grid, l_grid = (torch.as_tensor(a.ravel()) for a in np.meshgrid(sa, ell, indexing="ij"))
+    print("\n| kernel | method | mean ± sd of log σa | mean ± sd of log l |\n| --- | --- | ---: | ---: |")
+    for name in ("exponential", "matern32", "squared_exponential"):
+        eta = torch.as_tensor(rng.uniform(20.0, 100.0, (1, 2500)))
+        cov = marginal.covariance(x, get_kernel(name), torch.tensor([1.0]), torch.tensor([0.1]), SM**2 * eta[None] ** 2 + SE**2)
+        y = eta + (torch.linalg.cholesky(cov[0, 0]) @ torch.as_tensor(rng.standard_normal(2500)))[None]
+        for method in ("dense", "vecchia"):
+            v = torch.stack([torchshm.log_likelihood(y, eta, x, name, a, b, SM, SE, method=method) for a, b in zip(s_grid, l_grid)])
+            w = torch.softmax(v, 0)
+            cells = []
+            for t in (s_grid.log(), l_grid.log()):
+                mean = float((w * t).sum())
+                cells.append(f"{mean:.3f} ± {float((w * (t - mean).square()).sum()) ** 0.5:.3f}")
+            print(f"| {name} | {method} | {cells[0]} | {cells[1]} |", flush=True)
 
 
 def numpy_vecchia(y: np.ndarray, eta: np.ndarray, xy: np.ndarray, plan: neighbours.Plan) -> float:
@@ -188,6 +212,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--side", type=int, default=50, help="grid side of the error table")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--corners", action="store_true", help="error table: extreme σa/σe pairs only")
+    parser.add_argument("--posterior-only", action="store_true", help="grid posterior of (σa, l), dense vs Vecchia")
     parser.add_argument("--error-only", action="store_true")
     parser.add_argument("--scaling-only", action="store_true")
     parser.add_argument("--one-side", type=int, default=0, help=argparse.SUPPRESS)
@@ -197,6 +222,9 @@ def main(argv: list[str] | None = None) -> None:
         one_size(args.one_side, args.seed)
         return
     print(f"uptime: {os.getloadavg()} (1, 5, 15 min load averages); torch {torch.__version__}, 1 thread")
+    if args.posterior_only:
+        posterior_grid(args.seed)
+        return
     if not args.scaling_only:
         error(args.side, args.seed, args.corners)
     if not args.error_only:
