@@ -22,10 +22,14 @@ Then the O(n) state-space form (``docs/likelihood.md``):
 - n = 10^3 .. 10^6 in one load case (``matern32``): time and peak memory growth (peak resident
   set during the call minus the resident set before it), each size in a fresh subprocess.
 
+2-D fields (the Vecchia form): ``--only-field`` runs ``scripts/bench_likelihood_field.py``
+(error against the dense path over the priors' range; 10^4 .. 10^6 points, one parameter
+vector, one load case, beside the dense path, scikit-learn's exact GP and a numpy reference).
+
 Usage::
 
     python scripts/bench_likelihood.py [--repeats 20] [--slow-repeats 3] [--seed 0]
-        [--only-dense | --only-scaling | --only-celerite | --only-draws]
+        [--only-dense | --only-scaling | --only-celerite | --only-draws | --only-field]
 """
 
 from __future__ import annotations
@@ -258,8 +262,15 @@ def main() -> None:
     parser.add_argument("--only-scaling", action="store_true", help="only n = 10^3 .. 10^6")
     parser.add_argument("--only-celerite", action="store_true", help="only n = 10^5 x 12 beside celerite2")
     parser.add_argument("--only-draws", action="store_true", help="only the O(n) predictive draws")
+    parser.add_argument("--only-field", action="store_true", help="only the 2-D fields (Vecchia form)")
     parser.add_argument("--one-size", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.only_field:
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+        import bench_likelihood_field
+
+        bench_likelihood_field.main(["--seed", str(args.seed)])
+        return
     if args.one_size:
         one_size(args.one_size, args.seed)
         return

@@ -26,8 +26,13 @@ def test_field_log_likelihood_equals_scipy(rng: np.random.Generator) -> None:
     assert float(value) == pytest.approx(expected, rel=1e-10, abs=0)
 
 
-def test_field_is_dense_even_from_the_state_space_size() -> None:
-    assert marginal.choose_method(get_kernel("matern32"), 5000, "auto", dim=2) == "dense"
+def test_field_is_dense_below_the_vecchia_size_and_vecchia_from_it() -> None:
+    kern = get_kernel("matern32")
+    assert marginal.choose_method(kern, marginal.VECCHIA_FROM - 1, "auto", dim=2) == "dense"
+    assert marginal.choose_method(kern, marginal.VECCHIA_FROM, "auto", dim=2) == "vecchia"
+    assert marginal.choose_method(kern, 10**6, "auto", dim=1) == "state_space"
+    with pytest.raises(ValueError, match="method='vecchia' is for n x d coordinates"):
+        marginal.choose_method(kern, 10**4, "vecchia", dim=1)
     with pytest.raises(ValueError, match="2-D coordinates: no state-space form"):
         log_likelihood(torch.zeros(1, 3), torch.zeros(1, 3), torch.zeros(3, 2), "matern32", 1.0, 1.0,
                        method="state_space")
@@ -36,10 +41,10 @@ def test_field_is_dense_even_from_the_state_space_size() -> None:
 def test_too_large_field_is_one_line_with_size_and_alternatives(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(marginal, "_physical_memory", lambda: 2**30)  # a 1 GiB machine
     with pytest.raises(ValueError) as err:
-        marginal.choose_method(get_kernel("matern32"), 10_000, "auto", dim=2)
+        marginal.choose_method(get_kernel("matern32"), 10_000, "dense", dim=2)
     text = str(err.value)
     assert "\n" not in text and text.startswith("10000 points per load case: a dense covariance needs 1.5 GiB of 1.0 GiB")
-    assert "2-D coordinates have no state-space form: use fewer points (a coarser grid)" in text
+    assert "2-D coordinates: use method='vecchia' (nearest-neighbour approximation) or fewer points" in text
     assert "state space) or fewer points (a coarser pitch)" in str(
         pytest.raises(ValueError, marginal.choose_method, get_kernel("squared_exponential"), 10_000, "auto").value
     )

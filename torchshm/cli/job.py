@@ -64,8 +64,8 @@ def load_data(data: DataConfig, base: Path) -> Measurements:
     import torchshm
 
     if data.path is None:
-        if data.format is not None or data.odisi or data.missing is not None:
-            raise ValueError("data.format, data.missing and data.odisi apply to a file (data.path)")
+        if data.format is not None or data.odisi or data.dic or data.missing is not None:
+            raise ValueError("data.format, data.missing, data.odisi and data.dic apply to a file (data.path)")
         lines = 1 if data.lines is None else data.lines
         measurements = torchshm.synthetic_campaign(seed=data.campaign_seed, pitch=data.pitch, lines=lines)
     else:
@@ -77,12 +77,18 @@ def load_data(data: DataConfig, base: Path) -> Measurements:
 
 def _load_file(data: DataConfig, path: Path) -> Measurements:
     """The measurements of ``data.path`` in ``data.format`` (ODiSI options from ``data.lines``
-    and ``data.odisi``)."""
+    and ``data.odisi``; DIC options from ``data.dic``, ``data.path`` a glob of exports)."""
     import torchshm
 
     fmt = None if data.format is None else str(data.format).lower()
     if fmt is None and path.suffix.lower() == ".tsv":
         fmt = "odisi"
+    if fmt == "dic":
+        if data.lines is not None or data.odisi:
+            raise ValueError("data.lines and data.odisi do not apply to format=dic (its options go in data.dic)")
+        return torchshm.load_measurements(str(path), "dic", missing=data.missing, **dict(data.dic or {}))
+    if data.dic:
+        raise ValueError("data.dic applies to format=dic")
     options = dict(data.odisi or {})
     if fmt == "odisi":
         if data.lines is not None:

@@ -12,7 +12,7 @@ Layout of the composed config::
     model:      {_target_, <keyword arguments>}        # group model/ (Hydra instantiate)
     executor:   {kind, folder, n_jobs, params, address, jobqueue, cores_per_run, cores_env}   # group executor/
     priors:     {<parameter>: {dist, a, b, ..., label, unit}}   # group priors/ (Tables 2 and 4)
-    data:       {path, format, missing, lines, odisi, campaign_seed, loads, resolution, pitch}
+    data:       {path, format, missing, lines, odisi, dic, campaign_seed, loads, resolution, pitch}
     predict:    {loads, n}
     likelihood: {sigma_m, sigma_e, match, discrepancy}
     seed, store
@@ -177,11 +177,12 @@ class PriorConfig:
 class DataConfig:
     """Measurements used for inference."""
 
-    path: Optional[str] = None  # CSV, .nc or ODiSI .tsv file; None = torchshm.synthetic_campaign(campaign_seed)
-    format: Optional[str] = None  # csv, netcdf or odisi; None: from the file's suffix
+    path: Optional[str] = None  # CSV, .nc, ODiSI .tsv file or DIC exports (a glob); None = synthetic_campaign
+    format: Optional[str] = None  # csv, netcdf, odisi or dic; None: from the file's suffix (dic never guessed)
     missing: Optional[str] = None  # error or mask (NaN readings are dropouts); None: what the file says
     lines: Optional[Any] = None  # synthetic campaign: 1 or 2 fibres; odisi: {label: segment, [gauges] or [x0, x1]}
     odisi: Dict[str, Any] = field(default_factory=dict)  # other options of the ODiSI reader (windows, tare, ...)
+    dic: Dict[str, Any] = field(default_factory=dict)  # DIC reader options (loads, preset, columns, scale, ...)
     campaign_seed: int = 0
     loads: List[float] = field(default_factory=lambda: [39.8])  # front-axle positions [m]
     resolution: Optional[float] = 0.1  # spacing of kept positions [m] (group resolution/); None: all

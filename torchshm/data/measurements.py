@@ -242,15 +242,19 @@ def load_measurements(
     path: str | Path | Mapping[float, str | Path], format: str | None = None, *, missing: str | None = None,
     **options: object,
 ) -> Measurements:
-    """Read measurements from a ``.csv``, ``.nc`` or Luna ODiSI ``.tsv`` file.
+    """Read measurements from a ``.csv``, ``.nc``, Luna ODiSI ``.tsv`` or image-correlation file.
 
     Args:
-        path: the file (for ``format="odisi"`` also a mapping load case -> file).
-        format: ``"csv"``, ``"netcdf"`` or ``"odisi"``; ``None`` picks it by suffix
-            (``.csv``, ``.nc``, ``.tsv``).
+        path: the file (for ``format="odisi"`` also a mapping load case -> file; for
+            ``format="dic"`` a mapping load case -> export, a list or a glob pattern of exports).
+        format: ``"csv"``, ``"netcdf"``, ``"odisi"`` or ``"dic"``; ``None`` picks it by suffix
+            (``.csv``, ``.nc``, ``.tsv``; a DIC export is never guessed).
         missing: ``"error"`` or ``"mask"`` (NaN cells kept as dropouts); ``None`` means what the
-            file says (``# missing=mask``), else ``"error"``.
-        **options: for ``format="odisi"``, the options of :func:`torchshm.data.odisi.read_odisi`.
+            file says (``# missing=mask``), else ``"error"``; a DIC field is always masked
+            (``"error"`` refuses one with a lost subset).
+        **options: for ``format="odisi"``, the options of :func:`torchshm.data.odisi.read_odisi`;
+            for ``format="dic"``, those of :func:`torchshm.data.dic.read_dic` (``loads``,
+            ``preset``, ``columns``, ``scale``, ...).
 
     Raises:
         FileNotFoundError: the file does not exist.
@@ -263,10 +267,19 @@ def load_measurements(
         format = {".tsv": "odisi", ".nc": "netcdf", ".csv": "csv"}.get(Path(path).suffix.lower())
     if format == "odisi":
         return odisi.read_odisi(path, missing=missing or "error", **options)  # type: ignore[arg-type]
+    if format == "dic":
+        from torchshm.data.dic import read_dic
+
+        field = read_dic(path, **options)  # type: ignore[arg-type]
+        if missing == "error" and field.n_missing:
+            raise ValueError(f"load_measurements: {field.n_missing} lost or absent DIC subset(s); "
+                             "use missing='mask'")
+        return field
     if options:
-        raise TypeError(f"load_measurements: options {sorted(options)} apply to format='odisi' only")
+        raise TypeError(f"load_measurements: options {sorted(options)} apply to format='odisi' only "
+                        "(format='dic' has its own)")
     if isinstance(path, Mapping):
-        raise TypeError("load_measurements: one file per load case needs format='odisi'")
+        raise TypeError("load_measurements: one file per load case needs format='odisi' or 'dic'")
     return tables.load(Path(path), format, missing)
 
 

@@ -53,14 +53,17 @@ def log_likelihood(
     draws sample from. For the Markov kernels (``exponential``, ``matern32``, ``matern52``) from
     :data:`~torchshm.likelihood.marginal.STATE_SPACE_FROM` points per load case, the exact
     density is computed from the kernel's state-space form in O(n) time and memory instead
-    (any sorted or unsorted positions, repeats allowed; ``docs/likelihood.md``). Both forms are
-    differentiable by autograd, on CPU and CUDA tensors.
+    (any sorted or unsorted positions, repeats allowed; ``docs/likelihood.md``). For fields of
+    `n x d` coordinates from :data:`~torchshm.likelihood.marginal.VECCHIA_FROM` points per load
+    case, the nearest-neighbour (Vecchia) approximation is used instead of the dense covariance
+    (:mod:`torchshm.likelihood.vecchia`; its measured error is in ``docs/likelihood.md``). All
+    forms are differentiable by autograd, on CPU and CUDA tensors.
 
     Args:
         y: `L x n` measured strains [µε].
         eta: `... x L x n` model predictions [µε] (differentiable).
-        x: `n` positions [m], or `n x d` coordinates [m] of a field (dense covariance of a
-            kernel that takes coordinates; see :mod:`torchshm.likelihood.blocks`).
+        x: `n` positions [m], or `n x d` coordinates [m] of a field (a kernel of the Euclidean
+            distance; dense or Vecchia form, see :mod:`torchshm.likelihood.blocks`).
         kernel: a name from :data:`torchshm.kernels.KERNELS` or a :class:`Kernel`.
         sigma_a: discrepancy scale [µε], broadcastable to `...` (differentiable).
         length: correlation length [m], broadcastable to `...` (differentiable); ignored (may
@@ -69,7 +72,8 @@ def log_likelihood(
             a number, or a tensor broadcastable to `...` when it is inferred.
         sigma_e: standard deviation of the measurement noise [µε], >= 0; a number or a
             tensor broadcastable to `...`.
-        method: ``"auto"`` (default), ``"dense"`` or ``"state_space"``.
+        method: ``"auto"`` (default), ``"dense"``, ``"state_space"`` (1-D positions) or
+            ``"vecchia"`` (`n x d` coordinates).
         extra_variance: `... x L x n` variance [µε²] added to the diagonal of each load case's
             covariance, or None: e.g. an emulator's predictive variance of ``eta``, which makes
             the density the exact marginal over a Gaussian error of ``eta``.

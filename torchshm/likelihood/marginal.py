@@ -13,10 +13,15 @@ the posterior predictive draws (Eq. 15), from the same covariance. Two represent
 - ``"state_space"``: for the Markov kernels (exponential, Matérn 3/2 and 5/2) the exact same
   density and draws from the kernel's state-space form, O(n) time and memory
   (:mod:`torchshm.likelihood.statespace`); differentiable, CPU or CUDA.
+- ``"vecchia"``: for fields of `n x d` coordinates (`d >= 2`), the nearest-neighbour (Vecchia)
+  approximation of the same Gaussian, O(n m³) time and O(n m) memory
+  (:mod:`torchshm.likelihood.vecchia`); differentiable, CPU or CUDA; approximate, with the
+  error measured in ``docs/likelihood.md``.
 
 ``method="auto"`` takes the state space from :data:`STATE_SPACE_FROM` points per load case
-(the measured crossover, ``docs/likelihood.md``) and refuses, with one line, a dense covariance
-that would not fit in memory.
+(the measured crossover, ``docs/likelihood.md``), the Vecchia form for fields from
+:data:`VECCHIA_FROM` points per load case, and refuses, with one line, a dense covariance that
+would not fit in memory.
 """
 
 from __future__ import annotations
@@ -31,7 +36,7 @@ import torch
 from torch import Tensor
 
 from torchshm.kernels import Kernel
-from torchshm.likelihood import statespace
+from torchshm.likelihood import statespace, vecchia
 from torchshm.likelihood.cholesky import cholesky_with_jitter
 
 logger = logging.getLogger(__name__)
@@ -41,10 +46,15 @@ PROGRESS_EVERY_S = 15.0
 LOG_2PI = math.log(2.0 * math.pi)
 #: points per load case from which ``method="auto"`` uses the state-space form (measured)
 STATE_SPACE_FROM = 1000
+#: points per load case of a field (`n x d`, d >= 2) from which ``method="auto"`` uses the
+#: Vecchia form: below it the exact dense path costs at most a few seconds per evaluation
+VECCHIA_FROM = 5000
 #: largest dense covariance batch [bytes] built and factorised at once when sampling
 SAMPLE_CHUNK_BYTES = 2**21
 #: share of the physical memory that dense covariances may take before they are refused
 DENSE_MEMORY_SHARE = 0.5
+#: messages given once per process
+_SAID = {"vecchia": False}
 
 
 def covariance(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: Tensor) -> Tensor:
@@ -65,19 +75,20 @@ def covariance(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: 
 def choose_method(
     kern: Kernel, n: int, method: str = "auto", noise_positive: bool = True, dim: int = 1
 ) -> str:
-    """``"diagonal"``, ``"dense"`` or ``"state_space"`` for `n` points per load case.
+    """``"diagonal"``, ``"dense"``, ``"state_space"`` or ``"vecchia"`` for `n` points per load case.
 
     ``"auto"`` takes the state space only when the diagonal of Eq. (21) is known to be
     positive (``noise_positive``, i.e. ``sigma_e > 0``), which the state-space form needs at
     repeated positions, and only for 1-D positions (``dim == 1``); `n x d` coordinates
-    (``dim = d > 1``) are dense.
+    (``dim = d > 1``) are dense below :data:`VECCHIA_FROM` points and Vecchia from there.
 
     Raises:
-        ValueError: for an unknown method, ``"state_space"`` with a kernel that has none, or a
-            dense covariance larger than :data:`DENSE_MEMORY_SHARE` of the physical memory.
+        ValueError: for an unknown method, ``"state_space"`` with a kernel that has none,
+            ``"vecchia"`` for 1-D positions, or a dense covariance larger than
+            :data:`DENSE_MEMORY_SHARE` of the physical memory.
     """
-    if method not in ("auto", "dense", "state_space", "diagonal"):
-        raise ValueError(f"method must be 'auto', 'dense' or 'state_space', got {method!r}")
+    if method not in ("auto", "dense", "state_space", "diagonal", "vecchia"):
+        raise ValueError(f"method must be 'auto', 'dense', 'state_space' or 'vecchia', got {method!r}")
     if kern.is_diagonal:
         return "diagonal"
     if method == "diagonal":
@@ -88,13 +99,25 @@ def choose_method(
         raise ValueError(f"{what}: no state-space form; use method='dense'")
     if method == "state_space" or (method == "auto" and markov and noise_positive and n >= STATE_SPACE_FROM):
         return "state_space"
+    if method == "vecchia" and dim == 1:
+        raise ValueError("method='vecchia' is for n x d coordinates (d >= 2); positions along a line "
+                         "use 'state_space' or 'dense'")
+    if method == "vecchia" or (method == "auto" and dim > 1 and n >= VECCHIA_FROM):
+        if method == "auto" and not _SAID["vecchia"]:
+            _SAID["vecchia"] = True
+            logger.warning(
+                "%d points per load case of a %d-D field: the likelihood is the Vecchia approximation "
+                "(m = %d neighbours), whose error grows with the correlation length in pitches; see "
+                "docs/likelihood.md", n, dim, vecchia.neighbour_count(kern),
+            )
+        return "vecchia"
     need, have = 2 * 8 * n * n, _physical_memory()
     if need > DENSE_MEMORY_SHARE * have:
         instead = (
             "use 'exponential', 'matern32' or 'matern52' with sigma_e > 0 (exact O(n) state space) "
             "or fewer points (a coarser pitch)" if dim == 1 else
-            f"{dim}-D coordinates have no state-space form: use fewer points (a coarser grid) or split "
-            "the field into sensor lines (independent blocks)"
+            f"{dim}-D coordinates: use method='vecchia' (nearest-neighbour approximation) or fewer "
+            "points (a coarser grid)"
         )
         raise ValueError(
             f"{n} points per load case: a dense covariance needs {need / 2**30:.1f} GiB of "
@@ -122,7 +145,7 @@ class Eq21:
         sigma_a: `B` discrepancy scales [µε]; length: `B` correlation lengths [m].
         sigma_m: multiplicative model error (dimensionless); sigma_e: noise sd [µε]; each
             one number, or a `B` tensor (one per parameter vector, when they are inferred).
-        method: ``"auto"``, ``"dense"`` or ``"state_space"`` (see :func:`choose_method`).
+        method: ``"auto"``, ``"dense"``, ``"state_space"`` or ``"vecchia"`` (see :func:`choose_method`).
         extra: `B x L x n` variance [µε²] added to the diagonal, or None: e.g. an emulator's
             predictive variance of ``eta`` (the exact marginal over a Gaussian error of it).
     """
@@ -169,6 +192,8 @@ class Eq21:
             else:
                 x = self.x
             return statespace.log_density(resid, noise, x, self.kern, self.sigma_a, self.length)
+        if self.method == "vecchia":
+            return vecchia.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length)
         if self._shared_noise:
             noise = noise[:, :1]  # identical for every load case: one factorisation
         chol, failed = cholesky_with_jitter(covariance(self.x, self.kern, self.sigma_a, self.length, noise))
@@ -183,8 +208,10 @@ class Eq21:
 
         Standard normals come from ``generator`` in a fixed order: `B x L x n` for the
         multiplicative term, then for the dense and diagonal forms `B x L x n` multiplied by the
-        factor of ``K + sigma_e**2 I``; for the state space process noise block by block
-        (:func:`~torchshm.likelihood.statespace.sample`), then `B x L x n` measurement noise.
+        factor of ``K + sigma_e**2 I`` (for the Vecchia form, its sparse factor in Vecchia
+        order, :func:`~torchshm.likelihood.vecchia.sample`); for the state space process noise
+        block by block (:func:`~torchshm.likelihood.statespace.sample`), then `B x L x n`
+        measurement noise.
 
         Raises:
             ValueError: if a dense discrepancy covariance is not positive definite.
@@ -203,6 +230,12 @@ class Eq21:
             out[..., order] += f + (sigma_e * e)[..., order]
             return out
         z2 = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
+        if self.method == "vecchia":
+            if isinstance(self.sigma_e, Tensor) and self.sigma_e.ndim:  # inferred: one level per row
+                return out + torch.cat([vecchia.sample(x, self.kern, self.sigma_a[i:i + 1], self.length[i:i + 1],
+                                                       float(self.sigma_e[i]) ** 2, z2[i:i + 1])
+                                        for i in range(eta.shape[0])])
+            return out + vecchia.sample(x, self.kern, self.sigma_a, self.length, float(self.sigma_e) ** 2, z2)
         if self.method == "diagonal":
             sd = (self.kern.diag(_points(x), sigma_a=self.sigma_a)[:, None, :] + sigma_e.square()).sqrt()
             return out + sd * z2

@@ -1,0 +1,236 @@
+"""Benchmark of the Vecchia form of Eq. (21) on 2-D fields (``docs/likelihood.md``).
+
+Two parts, run by ``scripts/bench_likelihood.py --only-field`` (or this file directly):
+
+- error: |Δ log-likelihood| of the Vecchia form (m = 10, the default, 20 and 30) against the
+  exact dense value, over the priors' range (σa 0.2 and 5 µε, l = 0.02, 0.2 and 1 × the field
+  size, σe 0.05 and 1 µε, σm 0 and 0.05), on a `side x side` grid of a unit square, with y drawn
+  from the exact Gaussian and a heteroscedastic diagonal (η uniform in 20..100 µε);
+- time and memory: one parameter vector, one load case, Matérn 3/2, σa = 1 µε, l = 0.05 m,
+  σe = 0.1 µε, σm = 0.05, at 10^4, 10^5 and 10^6 grid points, each size in a fresh process
+  (peak resident set during the call minus before it): the plan (order and neighbours, once
+  per point set), one call, and beside it at 10^4 the dense path, scikit-learn's exact
+  ``GaussianProcessRegressor.log_marginal_likelihood`` (the same kernel and diagonal) and a
+  plain numpy computation of the same Vecchia sum on the same conditioning sets (the
+  reference of the value; written for this benchmark, batched ``numpy.linalg.cholesky``);
+  then one predictive draw of the field (``Eq21.sample``, sparse triangular solve).
+
+Usage::
+
+    OMP_NUM_THREADS=1 python scripts/bench_likelihood_field.py [--side 50] [--corners]
+        [--error-only | --scaling-only | --posterior-only]
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import math
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import torch
+
+import torchshm
+from torchshm.kernels import get_kernel
+from torchshm.likelihood import marginal, neighbours, vecchia
+
+KERNELS = ("exponential", "matern32", "matern52", "squared_exponential")
+SA, LENGTH, SE, SM = 1.0, 0.05, 0.1, 0.05
+
+
+def grid(side: int) -> np.ndarray:
+    """`side² x 2` points of a regular grid on the unit square [m]."""
+    g = np.linspace(0.0, 1.0, side)
+    return np.stack(np.meshgrid(g, g), -1).reshape(-1, 2)
+
+
+def error(side: int, seed: int, corners: bool = False) -> None:
+    """The error table over the priors' range (one dense factorisation per row); ``corners``:
+    only σm = 0.05 and the two extreme signal-to-noise pairs (σa, σe) = (5, 0.05) and (0.2, 1)."""
+    x = torch.as_tensor(grid(side))
+    n = x.shape[0]
+    rng = np.random.default_rng(seed)
+    eta = torch.as_tensor(rng.uniform(20.0, 100.0, (1, n)))
+    print(f"\n{n:,} points ({side} x {side} grid of the unit square): Vecchia − dense [nat]\n")
+    print("| kernel | σa [µε] | l | σe [µε] | σm | m = 10 | m = 20 | m = 30 |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for name in KERNELS:
+        kern = get_kernel(name)
+        grid_ = itertools.product((0.2, 5.0), (0.02, 0.2, 1.0), (0.05, 1.0), (0.0, 0.05))
+        if corners:
+            grid_ = [(sa, ell, se, 0.05) for (sa, se) in ((5.0, 0.05), (0.2, 1.0)) for ell in (0.02, 0.2, 1.0)]
+        for sa, ell, se, sm in grid_:
+            noise = sm**2 * eta[None] ** 2 + se**2
+            cov = marginal.covariance(x, kern, torch.tensor([sa]), torch.tensor([ell]), noise)[0, 0]
+            chol = torch.linalg.cholesky(cov)
+            z = torch.as_tensor(rng.standard_normal(n))
+            y = eta + (chol @ z)[None]
+            # the exact dense log density from the same factor (what method="dense" computes)
+            exact = -0.5 * (z.square().sum() + 2.0 * chol.diagonal().log().sum() + n * math.log(2.0 * math.pi))
+            cells = []
+            for m in (10, 20, 30):
+                vecchia.NEIGHBOURS[name] = m
+                cells.append(float(torchshm.log_likelihood(y, eta, x, name, sa, ell, sm, se, method="vecchia") - exact))
+            vecchia.NEIGHBOURS[name] = vecchia.DEFAULT_NEIGHBOURS
+            print(f"| {name} | {sa} | {ell} | {se} | {sm} | " + " | ".join(f"{c:+.3f}" for c in cells) + " |", flush=True)
+
+
+def posterior_grid(seed: int) -> None:
+    """Grid posterior of (log σa, log l) under a flat prior, dense against Vecchia (m = 10):
+    2,500 points, y drawn at σa = 1 µε, l = 0.1, σe = 0.1 µε, σm = 0.05; 13 x 13 grid,
+    σa 0.3..3 µε, l 0.03..0.3 (log-spaced)."""
+    x = torch.as_tensor(grid(50))
+    rng = np.random.default_rng(seed)
+    sa = np.exp(np.linspace(np.log(0.3), np.log(3.0), 13))
+    ell = np.exp(np.linspace(np.log(0.03), np.log(0.3), 13))
+    s_grid, l_grid = (torch.as_tensor(a.ravel()) for a in np.meshgrid(sa, ell, indexing="ij"))
+    print("\n| kernel | method | mean ± sd of log σa | mean ± sd of log l |\n| --- | --- | ---: | ---: |")
+    for name in ("exponential", "matern32", "squared_exponential"):
+        eta = torch.as_tensor(rng.uniform(20.0, 100.0, (1, 2500)))
+        cov = marginal.covariance(x, get_kernel(name), torch.tensor([1.0]), torch.tensor([0.1]), SM**2 * eta[None] ** 2 + SE**2)
+        y = eta + (torch.linalg.cholesky(cov[0, 0]) @ torch.as_tensor(rng.standard_normal(2500)))[None]
+        for method in ("dense", "vecchia"):
+            v = torch.stack([torchshm.log_likelihood(y, eta, x, name, a, b, SM, SE, method=method) for a, b in zip(s_grid, l_grid)])
+            w = torch.softmax(v, 0)
+            cells = []
+            for t in (s_grid.log(), l_grid.log()):
+                mean = float((w * t).sum())
+                cells.append(f"{mean:.3f} ± {float((w * (t - mean).square()).sum()) ** 0.5:.3f}")
+            print(f"| {name} | {method} | {cells[0]} | {cells[1]} |", flush=True)
+
+
+def numpy_vecchia(y: np.ndarray, eta: np.ndarray, xy: np.ndarray, plan: neighbours.Plan) -> float:
+    """The Vecchia sum of Matérn 3/2 on the plan's conditioning sets, in plain numpy."""
+    total = 0.0
+    xo, r = xy[plan.order], (y - eta)[plan.order]
+    d = SM**2 * eta[plan.order] ** 2 + SE**2
+    for start in range(0, xo.shape[0], 2**14):
+        rows = plan.blocks[start : start + 2**14]
+        valid = rows >= 0
+        safe = np.where(valid, rows, rows[:, -1:])
+        dist = np.linalg.norm(xo[safe][:, :, None] - xo[safe][:, None], axis=-1)
+        s = np.sqrt(3.0) * dist / LENGTH
+        cov = np.where(valid[:, :, None] & valid[:, None], SA**2 * (1 + s) * np.exp(-s), 0.0)
+        cov[:, np.arange(rows.shape[1]), np.arange(rows.shape[1])] = np.where(valid, SA**2 + d[safe], 1.0)
+        chol = np.linalg.cholesky(cov)
+        z = np.linalg.solve(chol, np.where(valid, r[safe], 0.0)[..., None])[:, -1, 0]
+        total -= 0.5 * (z**2 + 2 * np.log(chol[:, -1, -1]) + np.log(2 * np.pi)).sum()
+    return total
+
+
+def one_size(side: int, seed: int) -> None:
+    """(child process) plan, one call, peak memory growth; at 10^4 the references as well."""
+    torch.set_num_threads(1)
+    xy = grid(side)
+    n = xy.shape[0]
+    rng = np.random.default_rng(seed)
+    eta = rng.uniform(20.0, 100.0, n)
+    y = eta + rng.normal(0.0, 1.0, n)
+    x, yt, et = torch.as_tensor(xy), torch.as_tensor(y[None]), torch.as_tensor(eta[None])
+    small = torch.as_tensor(grid(20))  # warm-up: first-call initialisation is not part of the growth
+    torchshm.log_likelihood(yt[:, :400], et[:, :400], small, "matern32", SA, LENGTH, SM, SE, method="vecchia")
+    before = _rss_bytes()
+    start_cpu, start = time.process_time(), time.perf_counter()
+    plan = neighbours.plan(xy, vecchia.neighbour_count(get_kernel("matern32")))
+    rows = [("plan (order, neighbours, distances; once per point set)", time.perf_counter() - start, time.process_time() - start_cpu, "")]
+    for _ in range(2):
+        start_cpu, start = time.process_time(), time.perf_counter()
+        with torch.no_grad():
+            value = float(torchshm.log_likelihood(yt, et, x, "matern32", SA, LENGTH, SM, SE, method="vecchia"))
+        rows.append(("`torchshm.log_likelihood`, method='vecchia' (m = 10)", time.perf_counter() - start, time.process_time() - start_cpu, f"{value:.3f}"))
+    del rows[1]  # the first call after the plan
+    gaussian = marginal.Eq21(et[None], x, get_kernel("matern32"), torch.tensor([SA]), torch.tensor([LENGTH]), SM, SE, "vecchia")
+    start_cpu, start = time.process_time(), time.perf_counter()
+    draw = gaussian.sample(torch.Generator().manual_seed(seed))
+    rows.append(("one predictive draw, `Eq21.sample` (Vecchia, m = 10)", time.perf_counter() - start, time.process_time() - start_cpu, f"sd {float((draw - et).std()):.3f}"))
+    peak = _peak_rss_bytes()
+    if n <= 10_000:
+        rows += _references(xy, y, eta, x, yt, et, plan)
+    for label, wall, cpu, val in rows:
+        print(f"{label}\t{wall}\t{cpu}\t{val}")
+    print(f"growth\t{max(0, peak - before)}")
+
+
+def _references(xy, y, eta, x, yt, et, plan) -> list[tuple[str, float, float, str]]:  # noqa: ANN001
+    """Dense torch, scikit-learn's exact GP and the numpy Vecchia sum at the same size."""
+    from sklearn.gaussian_process import GaussianProcessRegressor
+    from sklearn.gaussian_process.kernels import ConstantKernel, Matern
+
+    out = []
+    jobs = [
+        ("`torchshm.log_likelihood`, method='dense' (exact)",
+         lambda: float(torchshm.log_likelihood(yt, et, x, "matern32", SA, LENGTH, SM, SE, method="dense"))),
+        ("scikit-learn `GaussianProcessRegressor`, exact (alpha = diagonal)", lambda: _sklearn(xy, y, eta, GaussianProcessRegressor, ConstantKernel, Matern)),
+        ("plain numpy Vecchia sum, same conditioning sets", lambda: numpy_vecchia(y, eta, xy, plan)),
+    ]
+    for label, fn in jobs:
+        start_cpu, start = time.process_time(), time.perf_counter()
+        with torch.no_grad():
+            value = fn()
+        out.append((label, time.perf_counter() - start, time.process_time() - start_cpu, f"{value:.3f}"))
+    return out
+
+
+def _sklearn(xy, y, eta, gpr, constant, matern) -> float:  # noqa: ANN001
+    kernel = constant(SA**2, constant_value_bounds="fixed") * matern(LENGTH, length_scale_bounds="fixed", nu=1.5)
+    model = gpr(kernel, alpha=SM**2 * eta**2 + SE**2, optimizer=None, normalize_y=False).fit(xy, y - eta)
+    return float(model.log_marginal_likelihood_value_)
+
+
+def scaling(seed: int) -> None:
+    """10^4, 10^5, 10^6 points, one fresh process each."""
+    print("\n| n | what | wall [s] | CPU [s] | value | peak memory growth [MB] |")
+    print("| ---: | --- | ---: | ---: | ---: | ---: |")
+    for side in (100, 316, 1000):
+        out = subprocess.run(
+            [sys.executable, __file__, "--one-side", str(side), "--seed", str(seed)],
+            check=True, capture_output=True, text=True, env={**os.environ, "OMP_NUM_THREADS": "1"},
+        ).stdout.strip().splitlines()
+        grow = int(out[-1].split("\t")[1]) / 2**20
+        for line in out[:-1]:
+            label, wall, cpu, val = line.split("\t")
+            mem = f"{grow:.0f}" if label.endswith("(m = 10)") else ""
+            print(f"| {side * side:,} | {label} | {float(wall):.3f} | {float(cpu):.3f} | {val} | {mem} |", flush=True)
+
+
+def _rss_bytes() -> int:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def _peak_rss_bytes() -> int:
+    with open("/proc/self/status") as f:
+        return int(next(row for row in f if row.startswith("VmHWM:")).split()[1]) * 1024
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--side", type=int, default=50, help="grid side of the error table")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--corners", action="store_true", help="error table: extreme σa/σe pairs only")
+    parser.add_argument("--posterior-only", action="store_true", help="grid posterior of (σa, l), dense vs Vecchia")
+    parser.add_argument("--error-only", action="store_true")
+    parser.add_argument("--scaling-only", action="store_true")
+    parser.add_argument("--one-side", type=int, default=0, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    torch.set_num_threads(1)
+    if args.one_side:
+        one_size(args.one_side, args.seed)
+        return
+    print(f"uptime: {os.getloadavg()} (1, 5, 15 min load averages); torch {torch.__version__}, 1 thread")
+    if args.posterior_only:
+        posterior_grid(args.seed)
+        return
+    if not args.scaling_only:
+        error(args.side, args.seed, args.corners)
+    if not args.error_only:
+        scaling(args.seed)
+    print(f"\nuptime after: {os.getloadavg()}")
+
+
+if __name__ == "__main__":
+    main()

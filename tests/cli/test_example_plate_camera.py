@@ -1,0 +1,58 @@
+"""The camera example's README commands with a tiny budget: a DIC field (DICe files written from
+muDIC's correlation of rendered images) read, identified and mapped end to end (slow, ~30 s)."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+EXAMPLE = REPO / "examples" / "plate_dic_camera"
+#: a thinned field (every 12th point each way: 1,100 points) and a budget far below convergence
+BUDGET = ["data.dic.every=12", "method.max_fun_evals=20", "method.n_samples=2000"]
+
+pytestmark = pytest.mark.slow
+
+
+def readme_commands() -> list[list[str]]:
+    """The commands of the README's first bash block, split as the shell does."""
+    block = re.search(r"```bash\n(.*?)```", (EXAMPLE / "README.md").read_text(), re.S)
+    assert block, "no bash block in examples/plate_dic_camera/README.md"
+    return [shlex.split(line) for line in block.group(1).splitlines() if line.strip()]
+
+
+def run(args: list[str]) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    env.pop("HYDRA_FULL_ERROR", None)
+    return subprocess.run([sys.executable, *args], cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
+
+
+def test_truth_file_names_the_model_parameters() -> None:
+    truth = json.loads((EXAMPLE / "truth.json").read_text())
+    assert set(k for k in truth if k.startswith("truth_")) == {"truth_E", "truth_log10_k"}
+    assert truth["points"] >= 100_000 and len(truth["files"]) == len(truth["loads"])
+    assert all((EXAMPLE / f).is_file() for f in truth["files"])
+
+
+def test_readme_commands_run_with_a_tiny_budget(tmp_path: Path) -> None:
+    identify, maps = readme_commands()
+    assert identify[0] == ".venv/bin/torchshm-identify" and maps[:2] == [".venv/bin/python", str(Path(
+        "examples/plate_dic_camera/maps.py"))]
+    out = tmp_path / "run"
+    assert identify[-1] == "hydra.run.dir=runs/plate_dic_camera" and maps[2] == "runs/plate_dic_camera"
+    result = run(["-m", "torchshm.cli.identify", *identify[1:-1], *BUDGET, f"hydra.run.dir={out}"])
+    assert result.returncode == 0, result.stderr[-3000:]
+    record = json.loads((out / "run.json").read_text())
+    assert record["names"] == ["E", "log10_k", "sigma_a"]  # kernel=independent: no length
+    assert (out / "posterior.nc").is_file()
+    result = run([maps[1], str(out), *maps[3:], "--draws", "20"])
+    assert result.returncode == 0, result.stderr[-3000:]
+    report = json.loads(result.stdout.strip().splitlines()[-1])
+    assert Path(report["maps"]).is_file() and report["points"] > 1000
