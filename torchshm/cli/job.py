@@ -18,6 +18,7 @@ from torchshm.config import Config, DataConfig, build_priors, method_options, pa
 from torchshm.cli import outputs
 from torchshm.cli.models import instantiate_model, with_executor
 from torchshm.forward.parallel import ParallelModel
+from torchshm.inference.validate import check_model_output, validate
 
 if TYPE_CHECKING:
     from torchshm.data.measurements import Measurements
@@ -158,7 +159,8 @@ def prepare_job(settings: Config, base: Path) -> PreparedJob:
 
     Raises:
         ValueError, OSError: for bad input (missing or malformed file, unknown load case, bad
-            priors or method options), before any model is evaluated.
+            priors or method options, see :mod:`torchshm.inference.validate`), after at most
+            one model run (the check of the output's shape and dtype).
     """
     t0 = time.perf_counter()
     if settings.predict.n < 1:
@@ -168,7 +170,9 @@ def prepare_job(settings: Config, base: Path) -> PreparedJob:
     held_out = measurements.select(settings.predict.loads) if settings.predict.loads else None
     model = build_model(settings, base)
     problem = build_problem(settings, model, measurements, base, priors)
-    _check_method_options(settings, len(problem.names))
+    method, options = settings.method.name.value, method_options(settings.method)
+    validate(problem, method, settings.seed, None, options)  # one line naming the input, the fix
+    check_model_output(problem, method, settings.seed, options)  # at most one model run
     labels = parameter_labels(settings.priors, model.model if isinstance(model, ParallelModel) else model)
     return PreparedJob(settings, problem, measurements, held_out, t0, labels)
 
@@ -199,24 +203,6 @@ def run_job(job: PreparedJob, out_dir: Path) -> JobResult:
     result.wall_time_s = time.perf_counter() - job.t0
     result.files["run"] = outputs.write_run_record(result, settings)
     return result
-
-
-def _check_method_options(settings: Config, n_params: int) -> None:
-    """Refuse method options that would fail only after model runs (``ValueError`` naming the key)."""
-    options = method_options(settings.method)
-    if settings.method.name.value == "vbmc":
-        from torchshm.inference.start import vbmc_budget
-
-        vbmc_budget(n_params, options)
-    if settings.method.name.value != "emcee":
-        return
-    if int(options.get("thin", 1)) < 1:
-        raise ValueError(f"method.thin must be >= 1, got {options['thin']}")
-    if int(options.get("n_walkers", 2 * n_params)) < 2 * n_params:
-        raise ValueError(
-            f"method.n_walkers must be at least twice the number of parameters "
-            f"({2 * n_params}), got {options['n_walkers']}"
-        )
 
 
 __all__ = [

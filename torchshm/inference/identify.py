@@ -10,7 +10,7 @@ from torchshm.inference.posterior import Posterior
 if TYPE_CHECKING:
     from torchshm.problem import Problem
 
-METHODS = ("vbmc", "emcee", "emulator")
+from torchshm.inference.validate import METHODS, check_model_output, runner, validate  # noqa: F401
 
 
 def identify(
@@ -38,31 +38,26 @@ def identify(
     Returns:
         The :class:`Posterior`. A run that did not converge has ``converged = False`` and warns.
 
+    Before any model run, every input is checked (:func:`torchshm.inference.validate.validate`):
+    an input that would be refused is refused in one line naming it and the fix, after at most
+    one model run (the output's shape and dtype); parallel runs (``n_jobs``, ``executor``) of a
+    problem without a store get one in ``log_dir`` (else under ``runs/``), said in a log line.
+
     Raises:
-        ValueError: for an unknown method.
+        ValueError: for an unknown method or option, or an input refused by the checks.
         KeyboardInterrupt, SystemExit: on Ctrl-C, or SIGTERM (exit status 143), the run stops
             at once after one line on stderr; every finished model run is in the problem's
             store, and the same call on the same store resumes.
     """
     from torchshm.storage.interrupt import resumable, store_of
 
+    validate(problem, method, seed, log_dir, options)
     with resumable(f"identify ({method})", store_of(problem)):
+        check_model_output(problem, method, seed, options)
         return _run(problem, method, seed, log_dir, options)
 
 
 def _run(problem: Problem, method: str, seed: int, log_dir: str | Path | None,
          options: dict[str, Any]) -> Posterior:
     """Dispatch to the method's runner (see :func:`identify`)."""
-    if method == "vbmc":
-        from torchshm.inference.variational import run_vbmc
-
-        return run_vbmc(problem, seed, log_dir=log_dir, **options)
-    if method == "emcee":
-        from torchshm.inference.mcmc import run_emcee
-
-        return run_emcee(problem, seed, log_dir=log_dir, **options)
-    if method == "emulator":
-        from torchshm.inference.adaptive import run_emulator
-
-        return run_emulator(problem, seed, log_dir=log_dir, **options)
-    raise ValueError(f"identify: unknown method {method!r}; choose one of {METHODS}")
+    return runner(method)(problem, seed, log_dir=log_dir, **options)
