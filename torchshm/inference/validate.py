@@ -196,7 +196,8 @@ def check_model_output(problem: Any, method: str, seed: int, options: dict[str, 
             from torchshm.forward.protocol import output_shape
 
             shape = output_shape(problem.model)
-            raise ValueError(f"identify: {str(error).splitlines()[0]}: the model must return float "
+            text = str(error).splitlines()[0].removeprefix("ValueError: ")
+            raise ValueError(f"identify: {text}: the model must return float "
                              f"strains `... x L x n` = {shape} (model.loads x model.x) for θp "
                              f"`... x {len(problem.physical_names)}`")
 
