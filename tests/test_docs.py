@@ -17,9 +17,11 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -118,6 +120,7 @@ PAGES = [p for p in DOC_FILES if any(not b.skip for b in collect(p))]
 
 @pytest.mark.parametrize("page", PAGES)
 def test_page_runs_as_written(page: str, sandbox: Path) -> None:
+    wall, cpu = time.perf_counter(), _children_cpu()
     blocks = [b for b in collect(page) if not b.skip]
     python = [{"name": b.name, "setup": b.setup, "code": b.code} for b in blocks if b.is_python]
     if python:
@@ -131,6 +134,13 @@ def test_page_runs_as_written(page: str, sandbox: Path) -> None:
         result = subprocess.run(["bash", "-e", "-c", f"{block.setup}\n{block.code}"], cwd=sandbox,
                                 env=_env(sandbox), capture_output=True, text=True, timeout=900)
         _check(result, block.name)
+    print(f"\ndocs test: {page}: {len(blocks)} blocks in {time.perf_counter() - wall:.0f} s wall, "
+          f"{_children_cpu() - cpu:.0f} s CPU")
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def test_every_block_left_out_says_why() -> None:
