@@ -138,8 +138,8 @@ def test_output_check_run_is_the_methods_first_run_and_not_repeated() -> None:
     options = {"n_walkers": 8, "n_steps": 4}
     with pytest.warns(RuntimeWarning):
         runner("emcee")(problem_of(unchecked), 0, **options)  # the method alone
-        torchshm.identify(problem_of(checked), "emcee", 0, **options)
-    assert checked.calls == unchecked.calls
+        post = torchshm.identify(problem_of(checked), "emcee", 0, **options)
+    assert checked.calls == unchecked.calls == post.n_model_evaluations  # the check's run counted
 
 
 def test_parallel_run_without_store_gets_one_in_log_dir(tmp_path: Path, caplog) -> None:

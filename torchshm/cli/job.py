@@ -148,6 +148,7 @@ class PreparedJob:
     held_out: Measurements | None
     t0: float
     labels: dict[str, str] = field(default_factory=dict)
+    n_checked: int = 0  # model runs of the output check (0 or 1)
 
 
 def prepare_job(settings: Config, base: Path) -> PreparedJob:
@@ -173,8 +174,9 @@ def prepare_job(settings: Config, base: Path) -> PreparedJob:
     method, options = settings.method.name.value, method_options(settings.method)
     validate(problem, method, settings.seed, None, options)  # one line naming the input, the fix
     check_model_output(problem, method, settings.seed, options)  # at most one model run
+    n_checked = int(problem.n_model_evaluations)  # counted with the run's (run_job)
     labels = parameter_labels(settings.priors, model.model if isinstance(model, ParallelModel) else model)
-    return PreparedJob(settings, problem, measurements, held_out, t0, labels)
+    return PreparedJob(settings, problem, measurements, held_out, t0, labels, n_checked)
 
 
 def run_job(job: PreparedJob, out_dir: Path) -> JobResult:
@@ -194,6 +196,7 @@ def run_job(job: PreparedJob, out_dir: Path) -> JobResult:
         problem, method=settings.method.name.value, seed=settings.seed,
         log_dir=out_dir / "tb", **method_options(settings.method),
     )
+    post.n_model_evaluations += job.n_checked
     result = JobResult(post, out_dir, 0.0)
     result.files.update(outputs.write_posterior(post, out_dir, job.measurements.attrs, job.labels))
     if job.held_out is not None:

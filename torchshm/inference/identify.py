@@ -53,8 +53,12 @@ def identify(
 
     validate(problem, method, seed, log_dir, options)
     with resumable(f"identify ({method})", store_of(problem)):
+        before = int(problem.n_model_evaluations)
         check_model_output(problem, method, seed, options)
-        return _run(problem, method, seed, log_dir, options)
+        checked = int(problem.n_model_evaluations) - before  # 0 or 1: counted with the method's
+        post = _run(problem, method, seed, log_dir, options)
+        post.n_model_evaluations += checked
+        return post
 
 
 def _run(problem: Problem, method: str, seed: int, log_dir: str | Path | None,
