@@ -197,6 +197,7 @@ def run_job(job: PreparedJob, out_dir: Path) -> JobResult:
         log_dir=out_dir / "tb", **method_options(settings.method),
     )
     post.n_model_evaluations += job.n_checked
+    post.diagnostics["n_check_evaluations"] = job.n_checked
     result = JobResult(post, out_dir, 0.0)
     result.files.update(outputs.write_posterior(post, out_dir, job.measurements.attrs, job.labels))
     if job.held_out is not None:

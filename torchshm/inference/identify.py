@@ -58,6 +58,7 @@ def identify(
         checked = int(problem.n_model_evaluations) - before  # 0 or 1: counted with the method's
         post = _run(problem, method, seed, log_dir, options)
         post.n_model_evaluations += checked
+        post.diagnostics["n_check_evaluations"] = checked
         return post
 
 
