@@ -18,6 +18,7 @@ from torchshm.config import Config, DataConfig, build_priors, method_options, pa
 from torchshm.cli import outputs
 from torchshm.cli.models import instantiate_model, with_executor
 from torchshm.forward.parallel import ParallelModel
+from torchshm.inference.method_checks import charge_check
 from torchshm.inference.validate import check_model_output, validate
 
 if TYPE_CHECKING:
@@ -192,10 +193,11 @@ def run_job(job: PreparedJob, out_dir: Path) -> JobResult:
     log.info("identifying %s with %s (%s kernel, %d load case(s), %d positions)",
              problem.names, settings.method.name.value, settings.kernel.name.value,
              len(settings.data.loads), job.measurements.n)
-    post = torchshm.identify(
-        problem, method=settings.method.name.value, seed=settings.seed,
-        log_dir=out_dir / "tb", **method_options(settings.method),
-    )
+    method = settings.method.name.value
+    options = charge_check(method, method_options(settings.method), len(problem.names),
+                           len(problem.physical_names), job.n_checked)  # within the budget
+    post = torchshm.identify(problem, method=method, seed=settings.seed, log_dir=out_dir / "tb",
+                             **options)
     post.n_model_evaluations += job.n_checked
     post.diagnostics["n_check_evaluations"] = job.n_checked
     result = JobResult(post, out_dir, 0.0)

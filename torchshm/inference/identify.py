@@ -10,6 +10,7 @@ from torchshm.inference.posterior import Posterior
 if TYPE_CHECKING:
     from torchshm.problem import Problem
 
+from torchshm.inference.method_checks import charge_check
 from torchshm.inference.validate import METHODS, check_model_output, runner, validate  # noqa: F401
 
 
@@ -56,6 +57,8 @@ def identify(
         before = int(problem.n_model_evaluations)
         check_model_output(problem, method, seed, options)
         checked = int(problem.n_model_evaluations) - before  # 0 or 1: counted with the method's
+        options = charge_check(method, options, len(problem.names), len(problem.physical_names),
+                               checked)
         post = _run(problem, method, seed, log_dir, options)
         post.n_model_evaluations += checked
         post.diagnostics["n_check_evaluations"] = checked

@@ -102,3 +102,25 @@ def first_point(problem: Any, method: str, seed: int, options: dict[str, Any]) -
         n = min(n_initial, max(budget, n_phys + 2))
         return design(plausible, n, seed)[0]
     return plausible.mean(axis=1)
+
+
+def charge_check(method: str, options: dict[str, Any], dim: int, n_phys: int,
+                 checked: int) -> dict[str, Any]:
+    """``options`` with the output check's ``checked`` runs (0 or 1) taken from the method's
+    budget (VBMC's ``max_fun_evals``, the emulator's ``max_model_evaluations``), so that the
+    run stays within the budget given; unchanged where the budget has no run to spare."""
+    if not checked:
+        return options
+    if method == "vbmc":
+        from torchshm.inference.start import vbmc_budget
+
+        n_initial = int(options.get("fun_eval_start") or 10 * -(-(dim + 1) // 10))
+        budget = vbmc_budget(dim, options) - checked
+        return {**options, "max_fun_evals": budget} if budget >= 2 * n_initial else options
+    if method == "emulator":
+        batch = int(options.get("batch_size", 5))
+        n_initial = int(options.get("n_initial") or batch * -(-(2 * n_phys + 1) // batch))
+        budget = options.get("max_model_evaluations")
+        budget = max(15 * n_phys, n_initial + 2 * batch) if budget is None else int(budget)
+        return {**options, "max_model_evaluations": budget - checked} if budget > checked else options
+    return options
