@@ -101,8 +101,8 @@ def test_no_run_folder_for_a_config_error(cli, tmp_path: Path) -> None:
     ("args", "fragments"),
     [
         (["predict.n=0"], ["predict.n must be >= 1"]),
-        (["method=emcee", "method.thin=0"], ["method.thin must be >= 1"]),
-        (["method=emcee", "method.n_walkers=3"], ["method.n_walkers must be at least twice"]),
+        (["method=emcee", "method.thin=0"], ["thin (method.thin) must be an integer >= 1"]),
+        (["method=emcee", "method.n_walkers=3"], ["n_walkers (method.n_walkers) must be at least twice"]),
     ],
 )
 def test_method_and_predict_options_checked_before_inference(cli, args: list[str], fragments: list[str]) -> None:

@@ -71,7 +71,7 @@ def test_vbmc_counts_and_reports(vbmc_run) -> None:
     assert post.n_model_evaluations <= 50 * (2 + 2)  # PyVBMC's max_fun_evals, search included
     # model calls of the search: Latin hypercube (10), Nelder-Mead (<= 20), probes (<= 2 x 6)
     assert 10 < d["n_start_evaluations"] <= 10 + 10 * 2 + 2 * 6
-    assert d["n_start_evaluations"] + d["vbmc_func_count"] >= post.n_model_evaluations
+    assert d["n_start_evaluations"] + d["vbmc_func_count"] + d["n_check_evaluations"] >= post.n_model_evaluations
     assert post.samples.shape == (100_000, 2)
     assert set(post.priors) == {"p0", "p1", "sigma_a"}
     h = post.history

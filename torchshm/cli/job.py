@@ -19,6 +19,8 @@ from torchshm.config import Config, DataConfig, build_priors, method_options, pa
 from torchshm.cli import outputs
 from torchshm.cli.models import instantiate_model, runs_report, with_executor
 from torchshm.forward.parallel import ParallelModel
+from torchshm.inference.method_checks import charge_check
+from torchshm.inference.validate import check_model_output, validate
 
 if TYPE_CHECKING:
     from torchshm.data.measurements import Measurements
@@ -180,6 +182,7 @@ class PreparedJob:
     t0: float
     labels: dict[str, str] = field(default_factory=dict)
     model: Any = None  # the forward model as built (a ParallelModel's Dask client is closed after the run)
+    n_checked: int = 0  # model runs of the output check (0 or 1)
 
 
 def prepare_job(settings: Config, base: Path) -> PreparedJob:
@@ -191,7 +194,8 @@ def prepare_job(settings: Config, base: Path) -> PreparedJob:
 
     Raises:
         ValueError, OSError: for bad input (missing or malformed file, unknown load case, bad
-            priors or method options), before any model is evaluated.
+            priors or method options, see :mod:`torchshm.inference.validate`), after at most
+            one model run (the check of the output's shape and dtype).
     """
     t0 = time.perf_counter()
     if settings.predict.n < 1:
@@ -201,9 +205,12 @@ def prepare_job(settings: Config, base: Path) -> PreparedJob:
     held_out = measurements.select(settings.predict.loads) if settings.predict.loads else None
     model = build_model(settings, base)
     problem = build_problem(settings, model, measurements, base, priors)
-    _check_method_options(settings, len(problem.names))
+    method, options = settings.method.name.value, method_options(settings.method)
+    validate(problem, method, settings.seed, None, options)  # one line naming the input, the fix
+    check_model_output(problem, method, settings.seed, options)  # at most one model run
+    n_checked = int(problem.n_model_evaluations)  # counted with the run's (run_job)
     labels = parameter_labels(settings.priors, model.model if isinstance(model, ParallelModel) else model)
-    return PreparedJob(settings, problem, measurements, held_out, t0, labels, model)
+    return PreparedJob(settings, problem, measurements, held_out, t0, labels, model, n_checked)
 
 
 def run_job(job: PreparedJob, out_dir: Path) -> JobResult:
@@ -227,10 +234,13 @@ def _run(job: PreparedJob, out_dir: Path) -> JobResult:
     log.info("identifying %s with %s (%s kernel, %d load case(s), %d positions)",
              problem.names, settings.method.name.value, settings.kernel.name.value,
              len(settings.data.loads), job.measurements.n)
-    post = torchshm.identify(
-        problem, method=settings.method.name.value, seed=settings.seed,
-        log_dir=out_dir / "tb", **method_options(settings.method),
-    )
+    method = settings.method.name.value
+    options = charge_check(method, method_options(settings.method), len(problem.names),
+                           len(problem.physical_names), job.n_checked)  # within the budget
+    post = torchshm.identify(problem, method=method, seed=settings.seed, log_dir=out_dir / "tb",
+                             **options)
+    post.n_model_evaluations += job.n_checked
+    post.diagnostics["n_check_evaluations"] = job.n_checked
     report = runs_report(problem.model)
     if report is not None:
         log.info("run folders: %s", report)
@@ -245,24 +255,6 @@ def _run(job: PreparedJob, out_dir: Path) -> JobResult:
     for line in post.warnings:  # printed first with the summary; repeated as the last lines
         log.warning(line)
     return result
-
-
-def _check_method_options(settings: Config, n_params: int) -> None:
-    """Refuse method options that would fail only after model runs (``ValueError`` naming the key)."""
-    options = method_options(settings.method)
-    if settings.method.name.value == "vbmc":
-        from torchshm.inference.start import vbmc_budget
-
-        vbmc_budget(n_params, options)
-    if settings.method.name.value != "emcee":
-        return
-    if int(options.get("thin", 1)) < 1:
-        raise ValueError(f"method.thin must be >= 1, got {options['thin']}")
-    if int(options.get("n_walkers", 2 * n_params)) < 2 * n_params:
-        raise ValueError(
-            f"method.n_walkers must be at least twice the number of parameters "
-            f"({2 * n_params}), got {options['n_walkers']}"
-        )
 
 
 __all__ = [

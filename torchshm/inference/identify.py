@@ -11,7 +11,8 @@ from torchshm.inference.posterior import Posterior
 if TYPE_CHECKING:
     from torchshm.problem import Problem
 
-METHODS = ("vbmc", "emcee", "emulator")
+from torchshm.inference.method_checks import charge_check
+from torchshm.inference.validate import METHODS, check_model_output, runner, validate  # noqa: F401
 
 
 def identify(
@@ -42,31 +43,33 @@ def identify(
         :func:`~torchshm.inference.checks.check_fit` then adds ``post.warnings`` (not converged,
         mass at a prior bound, noise model contradicted by the data; no model run).
 
+    Before any model run, every input is checked (:func:`torchshm.inference.validate.validate`):
+    an input that would be refused is refused in one line naming it and the fix, after at most
+    one model run (the output's shape and dtype); parallel runs (``n_jobs``, ``executor``) of a
+    problem without a store get one in ``log_dir`` (else under ``runs/``), said in a log line.
+
     Raises:
-        ValueError: for an unknown method.
+        ValueError: for an unknown method or option, or an input refused by the checks.
         KeyboardInterrupt, SystemExit: on Ctrl-C, or SIGTERM (exit status 143), the run stops
             at once after one line on stderr; every finished model run is in the problem's
             store, and the same call on the same store resumes.
     """
     from torchshm.storage.interrupt import resumable, store_of
 
+    validate(problem, method, seed, log_dir, options)
     with resumable(f"identify ({method})", store_of(problem)):
-        return check_fit(_run(problem, method, seed, log_dir, options))
+        before = int(problem.n_model_evaluations)
+        check_model_output(problem, method, seed, options)
+        checked = int(problem.n_model_evaluations) - before  # 0 or 1: counted with the method's
+        options = charge_check(method, options, len(problem.names), len(problem.physical_names),
+                               checked)
+        post = _run(problem, method, seed, log_dir, options)
+        post.n_model_evaluations += checked
+        post.diagnostics["n_check_evaluations"] = checked
+        return check_fit(post)
 
 
 def _run(problem: Problem, method: str, seed: int, log_dir: str | Path | None,
          options: dict[str, Any]) -> Posterior:
     """Dispatch to the method's runner (see :func:`identify`)."""
-    if method == "vbmc":
-        from torchshm.inference.variational import run_vbmc
-
-        return run_vbmc(problem, seed, log_dir=log_dir, **options)
-    if method == "emcee":
-        from torchshm.inference.mcmc import run_emcee
-
-        return run_emcee(problem, seed, log_dir=log_dir, **options)
-    if method == "emulator":
-        from torchshm.inference.adaptive import run_emulator
-
-        return run_emulator(problem, seed, log_dir=log_dir, **options)
-    raise ValueError(f"identify: unknown method {method!r}; choose one of {METHODS}")
+    return runner(method)(problem, seed, log_dir=log_dir, **options)

@@ -255,6 +255,17 @@ class Problem:
         """The ``EvaluationStore`` every model evaluation goes through, or ``None``."""
         return self._model.store
 
+    def with_store(self, store: str | PathLike[str] | Any) -> Problem:
+        """This problem, its evaluations kept from now on in ``store`` (a path or an
+        ``EvaluationStore``); the runs it made before are copied there. Parallel runs
+        (``n_jobs``, an executor) need a store, where each worker leaves its result.
+
+        Raises:
+            ValueError: when the problem has a store already.
+        """
+        self._model.attach_store(store)
+        return self
+
     @property
     def n_model_evaluations(self) -> int:
         """Model calls made by this problem (cache and store hits excluded)."""

@@ -10,6 +10,8 @@ or in an evaluation store). A failed run gives NaN outputs and its error text is
 from __future__ import annotations
 
 import math
+import os
+import socket
 from os import PathLike
 from typing import TYPE_CHECKING
 
@@ -17,10 +19,10 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from torchshm.forward.protocol import as_tensor, output_shape
+from torchshm.forward.protocol import as_tensor, model_identity, output_shape
 from torchshm.storage.cache import MemoryBackend, open_backend
 from torchshm.storage.keys import canonical_theta, theta_key
-from torchshm.storage.record import check_dtype
+from torchshm.storage.record import Record, check_dtype, now_utc
 from torchshm.storage.store import EvaluationStore
 
 if TYPE_CHECKING:
@@ -107,6 +109,26 @@ class CachedModel:
                 self.backend.put(key, row)
         nan = torch.full((1, *self.shape), math.nan, dtype=torch.float64)
         return torch.cat([out, nan])
+
+    def attach_store(self, store: str | PathLike[str] | EvaluationStore) -> EvaluationStore:
+        """Keep every later evaluation in ``store``, and copy there the finished runs kept in
+        this process so far (none is run again). Returns the store.
+
+        Raises:
+            ValueError: when the outputs already go to a store.
+        """
+        if self.store is not None:
+            raise ValueError(f"the evaluations already go to the store {self.store.path}")
+        theta, outputs = self.backend.all(self.model, self.shape)
+        self.backend = open_backend(store)
+        identity = model_identity(self.model)
+        keys = [theta_key(row) for row in canonical_theta(theta)] if len(outputs) else []
+        for key, output in zip(keys, outputs, strict=True):
+            self.store.put(Record(model=identity, key=key, status="ok",
+                                  outputs=np.asarray(output, dtype=np.float64), error=None,
+                                  wall_time=math.nan, finished_at=now_utc(),
+                                  host=socket.gethostname(), pid=os.getpid()))
+        return self.store
 
     def evaluations(self, n_params: int) -> tuple[np.ndarray, np.ndarray]:
         """``(theta_p `M x P`, outputs `M x L_model x n_model`)`` of every finished evaluation
