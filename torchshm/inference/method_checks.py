@@ -121,6 +121,10 @@ def charge_check(method: str, options: dict[str, Any], dim: int, n_phys: int,
         batch = int(options.get("batch_size", 5))
         n_initial = int(options.get("n_initial") or batch * -(-(2 * n_phys + 1) // batch))
         budget = options.get("max_model_evaluations")
-        budget = max(15 * n_phys, n_initial + 2 * batch) if budget is None else int(budget)
+        if budget is None:  # run_emulator's own default cap
+            from torchshm.inference.adaptive.method import default_cap
+
+            budget = default_cap(dim, n_initial, batch)
+        budget = int(budget)
         return {**options, "max_model_evaluations": budget - checked} if budget > checked else options
     return options

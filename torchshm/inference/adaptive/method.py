@@ -95,7 +95,7 @@ def run_emulator(
     batch_size = _positive("batch_size", batch_size)
     n_initial = _positive("n_initial", n_initial or batch_size * -(-(2 * n_phys + 1) // batch_size))
     if max_model_evaluations is None:
-        max_model_evaluations = max(50 * (dim + 2), n_initial + 2 * batch_size)
+        max_model_evaluations = default_cap(dim, n_initial, batch_size)
     budget = _positive("max_model_evaluations", max_model_evaluations, minimum=0)
     n_walkers = int(n_walkers or max(48, 8 * dim))
     transform = model_transform(problem.model)
@@ -176,6 +176,12 @@ def run_emulator(
         "n_reused_runs": n_reused, "budget": budget, "t0": t0, "hard": hard,
         "plausible": plausible,
     })
+
+
+def default_cap(dim: int, n_initial: int, batch_size: int) -> int:
+    """The default cap on model runs: PyVBMC's budget, 50 (D + 2), for `D` inferred parameters
+    (at least the initial design and two batches)."""
+    return max(50 * (dim + 2), n_initial + 2 * batch_size)
 
 
 def _posterior(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray,
