@@ -93,23 +93,29 @@ def prior_box(problem: Any, tail: float = 1e-4) -> np.ndarray:
 
 
 def run_gpry(problem: Any, quick: bool, seed: int) -> dict[str, Any]:
-    """GPry on ``problem.log_joint`` over :func:`prior_box`; its log Z is mapped back to the
-    problem's (GPry divides by the box volume)."""
+    """GPry on ``problem.log_joint`` over :func:`prior_box`, its initial points drawn from the
+    plausible box (``ref_bounds``, as the other methods' designs); its log Z is mapped back to
+    the problem's (GPry divides by the box volume)."""
     from gpry import Runner
 
     names, box = list(problem.names), prior_box(problem)
+    holder: dict[str, Any] = {}
+    per_iteration: dict[int, int] = {}  # GPry iteration (0: initial design) -> evaluations
 
     def loglike(x: np.ndarray) -> float:
+        it = int(getattr(holder.get("runner"), "current_iteration", 0))
+        per_iteration[it] = per_iteration.get(it, 0) + 1
         v = float(np.asarray(problem.log_joint(np.asarray(x, dtype=float)[None]))[0])
         return v if np.isfinite(v) else -np.inf
 
     options: dict[str, Any] = {"n_points_per_acq": WORKERS}
     if quick:
-        options.update(n_initial=6, max_initial=20, max_total=16)
+        options.update(n_initial=6, max_initial=16, max_total=16)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        runner = Runner(loglike, bounds=box.tolist(), params=names, options=options,
+        runner = Runner(loglike, bounds=box.tolist(), ref_bounds=np.asarray(problem.plausible_bounds).tolist(), params=names, options=options,
                         seed=seed, verbose=1, plots=False)
+        holder["runner"] = runner
         runner.run()
     mc = runner.last_mc_samples()
     if mc is None:
@@ -117,10 +123,9 @@ def run_gpry(problem: Any, quick: bool, seed: int) -> dict[str, Any]:
         mc = runner.last_mc_samples()
     mean, sd = weighted_moments(np.asarray(mc["X"]), None if mc["w"] is None else np.asarray(mc["w"]))
     log_z = runner.last_mc_logZ()
-    totals = np.concatenate([[0], np.asarray(runner.progress.data["n_total"], dtype=int)])
     return {"mean": mean, "sd": sd, "converged": bool(runner.has_converged),
             "log_z": None if log_z is None else float(log_z[0]) + float(np.log(box[:, 1] - box[:, 0]).sum()),
-            "rounds": int(sum(math.ceil(d / WORKERS) for d in np.diff(totals) if d > 0))}
+            "rounds": int(sum(math.ceil(n / WORKERS) for n in per_iteration.values()))}
 
 
 def run_method(problem: Any, method: str, quick: bool = False, seed: int = 0) -> dict[str, Any]:

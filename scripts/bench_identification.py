@@ -138,13 +138,16 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="JSON file of all rows")
     parser.add_argument("--no-docs", action="store_true", help="do not write docs/benchmarks.md")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--rescore", type=Path, help="score the rows of an earlier --out file again "
-                        "(e.g. after making references) instead of running")
+    parser.add_argument("--rescore", type=Path, nargs="+", help="score the rows of earlier --out files "
+                        "again (e.g. after making references; several: runs split by --methods) instead of running")
     args = parser.parse_args()
     torch.set_num_threads(1)
     if args.rescore:
-        saved = json.loads(args.rescore.read_text())
-        rows, (start, load0, load1) = saved["rows"], saved["meta"]
+        saved = [json.loads(f.read_text()) for f in args.rescore]
+        rows = [r for s in saved for r in s["rows"]]
+        order = {c: i for i, c in enumerate(CASES)}
+        rows.sort(key=lambda r: (order[r["case"]], [*METHODS, "emcee"].index(r["method"])))
+        start, load0, load1 = min(s["meta"][0] for s in saved), saved[0]["meta"][1], saved[-1]["meta"][2]
         for row in rows:
             path = REFS / f"{row['case']}.json"
             if path.exists() and json.loads(path.read_text())["case_hash"] == case_hash(CASES[row["case"]]):
@@ -157,7 +160,10 @@ def main() -> None:
             if args.out:  # after every case, so that a long run can be scored while it goes on
                 args.out.write_text(json.dumps({"meta": [start, load0, os.getloadavg()], "rows": rows}) + "\n")
         load1 = os.getloadavg()
-    header = (f"Run of `scripts/bench_identification.py{' --quick' if args.quick else ''}` started {start}, "
+    how = (f"{len(args.rescore)} runs of `scripts/bench_identification.py`, one per `--methods`, side by side, "
+           f"merged by `--rescore`," if args.rescore and len(args.rescore) > 1 else
+           f"Run of `scripts/bench_identification.py{' --quick' if args.quick else ''}`")
+    header = (f"{how} started {start}, "
               f"{platform.machine()}, torch {torch.__version__} on 1 thread; load average (1, 5, 15 min) "
               f"{', '.join(f'{v:.1f}' for v in load0)} at the start, {', '.join(f'{v:.1f}' for v in load1)} at "
               f"the end (2 shared cores: CPU times are the comparable figures). Runs: distinct model runs; "
