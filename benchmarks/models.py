@@ -31,14 +31,16 @@ class Role:
     kind: ``"modulus"`` (EI factor [GPa] on elements within ``span``), ``"factor"`` (dimensionless
     EI factor within ``span``), ``"log10_rot"`` / ``"log10_vert"`` (log10 of a rotational
     [N·m/rad] or vertical [N/m] spring at support ``support``), ``"depth"`` (fibre distance
-    below the neutral axis [m]), ``"damage_pos"`` [m] / ``"damage_depth"`` (centre and depth,
-    0..1, of a Gaussian loss of stiffness of width ``width`` [m]).
+    below the neutral axis [m]), ``"damage_pos"`` [m] (centre of a Gaussian loss of stiffness of
+    width ``width`` [m] and relative depth ``depth``, or, when ``depth`` is 0, of the
+    ``"damage_depth"`` parameter, 0..1).
     """
 
     kind: str
     span: tuple[float, float] = (-math.inf, math.inf)
     support: int = 0
     width: float = 1.0
+    depth: float = 0.0
 
 
 @dataclass
@@ -121,13 +123,16 @@ class Beam:
         return out.reshape(*theta.shape[:-1], len(self.loads), len(self.x))
 
     def _damage(self, flat: Tensor) -> Tensor:
-        """EI factors `B x n_el` of the Gaussian damage roles (1 without one)."""
-        kinds = {r.kind: j for j, r in enumerate(self.roles.values())}
-        if "damage_pos" not in kinds:
-            return torch.ones(1, len(self.centres), dtype=torch.float64)
-        width = self.roles[self.names[kinds["damage_pos"]]].width
-        pos, dep = flat[:, kinds["damage_pos"], None], flat[:, kinds["damage_depth"], None]
-        return 1 - dep * torch.exp(-0.5 * ((self.centres - pos) / width) ** 2)
+        """EI factors `B x n_el` of the Gaussian damages (1 without one): one per ``damage_pos``
+        role, of the role's fixed ``depth`` or, when that is 0, of the ``damage_depth`` parameter."""
+        factor = torch.ones(1, len(self.centres), dtype=torch.float64)
+        roles = list(self.roles.values())
+        free = [j for j, r in enumerate(roles) if r.kind == "damage_depth"]
+        for j, role in enumerate(roles):
+            if role.kind == "damage_pos":
+                dep = flat[:, free[0], None] if role.depth == 0.0 else role.depth
+                factor = factor * (1 - dep * torch.exp(-0.5 * ((self.centres - flat[:, j, None]) / role.width) ** 2))
+        return factor
 
     def _element_matrices(self, n_el: int) -> tuple[Tensor, Tensor]:
         """Unit element stiffness `n_el x 16` and its flat global indices `n_el * 16`."""
