@@ -95,8 +95,9 @@ def table(rows: list[dict], header: str) -> str:
              "| --- | ---: | --- | ---: | ---: | ---: | ---: | --- | ---: | ---: | --- | --- |"]
     for r in rows:
         ratio = f"{r['sd_ratio_min']:.2f}–{r['sd_ratio_max']:.2f}" if "sd_ratio_min" in r else ""
-        lines.append(f"| {r['case']} | {r['P']} | {r['method']} | {r['runs']} | {r['rounds']} | "
-                     f"{r['sim_wall_h']:.1f} | {_f(r.get('max_dmean_sd'), '.2f')} | {ratio} | "
+        rounds, wall = ("–", "–") if r["error"] else (r["rounds"], f"{r['sim_wall_h']:.1f}")  # unknown batches
+        lines.append(f"| {r['case']} | {r['P']} | {r['method']} | {r['runs']} | {rounds} | "
+                     f"{wall} | {_f(r.get('max_dmean_sd'), '.2f')} | {ratio} | "
                      f"{_f(r.get('dlog_z'), '+.2f')} | {r['own_cpu_s']:.1f} | {'yes' if r['converged'] else 'no'} | "
                      f"{r['error'].replace('|', '/')} |")
     lines += ["", "| method | cases (errors) | median max \\|Δmean\\|/sd | worst (case) | median \\|Δlog Z\\| | "

@@ -78,15 +78,16 @@ def reference(case: Case, seed: int = 1, n_importance: int = 20000) -> dict:
     weights = np.concatenate([np.full(len(s), mw / len(s)) for s, mw in zip(samples, imp["mode_weights"])])
     summary = weighted_summary(np.vstack(samples), weights)
     prior_sd = problem.sample_prior(20000, np.random.default_rng(seed)).std(0)
-    identified = [n for n, s, p in zip(names, summary["sd"], prior_sd)
-                  if s < 0.5 * p and n not in case.unidentified]
+    within = np.max([s.std(0) for s in samples], axis=0)  # sd inside each mode: a mode's width
+    identified = [n for n, s, p in zip(names, within, prior_sd) if s < 0.5 * p and n not in case.unidentified]
     commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
     return {"case": case.name, "case_hash": case_hash(case), "commit": commit, "seed": seed, "names": names,
             "truth": truth.tolist(), **summary, "prior_sd": prior_sd.tolist(), "identified": identified,
             "map": {"modes": [m.tolist() for m in modes], "optimum_per_start": [round(v, 3) for v in optima],
                     "n_starts": len(starts), "starts_within_0.5_nats": int(np.sum(np.array(optima) > optima[0] - 0.5)),
                     "cpu_s": round(t_map, 1)},
-            "chains": chains, "importance": imp,
+            "chains": chains, "importance": imp, "mode_means": [np.round(s.mean(0), 5).tolist() for s in samples],
+            "mode_sds": [np.round(s.std(0), 5).tolist() for s in samples],
             "settings": {"moves": "DE 0.8 + DE snooker 0.2", "n_tau": 50, "burn": "max(300, 5 tau)",
                          "proposal": "equal mixture of multivariate t (df 4), 1.5 x chain sd, one per mode"},
             "cpu_s": round(time.process_time() - t0, 1)}
