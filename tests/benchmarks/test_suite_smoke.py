@@ -38,7 +38,10 @@ def test_case_problem_and_reference(name: str) -> None:
     problem = make_problem(case)
     value = float(problem.log_joint(truth_vector(case, list(problem.names))))
     assert np.isfinite(value)
-    ref = json.loads((REFS / f"{name}.json").read_text())
+    path = REFS / f"{name}.json"
+    if not path.exists():  # the suite's table shows such a case as "missing" too
+        pytest.skip(f"no reference yet: python scripts/make_references.py --case {name}")
+    ref = json.loads(path.read_text())
     assert ref["case_hash"] == case_hash(case), f"stale reference: rerun scripts/make_references.py --case {name}"
     assert ref["names"] == list(problem.names)
     assert min(c["n_over_tau"] for c in ref["chains"]) >= 50
