@@ -74,7 +74,8 @@ class Case:
 def _gp_draw(kernel: str, x: np.ndarray, sigma_a: float, length: float, rng: np.random.Generator) -> np.ndarray:
     """One draw `n` [µε] of the zero-mean discrepancy GP at positions `n` or coordinates `n x d`."""
     k = torchshm.get_kernel(kernel)
-    cov = k(torch.as_tensor(x), sigma_a=torch.tensor(sigma_a), length=torch.tensor(length)).numpy()
+    cov = k(torch.as_tensor(x), sigma_a=torch.tensor(sigma_a, dtype=torch.float64),
+            length=torch.tensor(length, dtype=torch.float64)).numpy()
     cov = cov.reshape(len(x), len(x)) + 1e-8 * sigma_a**2 * np.eye(len(x))
     return np.linalg.cholesky(cov) @ rng.standard_normal(len(x))
 
@@ -127,7 +128,7 @@ def case_hash(case: Case) -> str:
     priors = {k: [repr(p), np.asarray(p.hard_bounds).tolist(), np.asarray(p.plausible_bounds).tolist()]
               for k, p in case.priors.items()}
     model = case.model()
-    centre = torch.tensor([float(np.mean(case.priors[n].plausible_bounds)) for n in model.names])
+    centre = torch.tensor([float(np.mean(case.priors[n].plausible_bounds)) for n in model.names], dtype=torch.float64)
     digest = hashlib.sha256(np.round(np.nan_to_num(make_measurements(case).y, nan=1e9), 4).tobytes())
     digest.update(np.round(model(centre).numpy(), 4).tobytes())
     text = json.dumps({
