@@ -71,7 +71,7 @@ def run_case(name: str, methods: list[str], quick: bool, seed: int) -> list[dict
         row = run_method(problem, method, quick, seed)
         row["wall_s"] = time.perf_counter() - t0
         row["sim_wall_h"] = row["rounds"] * MODEL_MINUTES / 60 + row["own_cpu_s"] / 3600
-        row.update(case=name, method=method, P=case.n_physical, D=len(problem.names),
+        row.update(case=name, method=method, P=case.n_physical, D=len(problem.names), case_hash=case_hash(case),
                    reference="stale" if stale else ("missing" if ref is None else "ok"))
         if ref is not None and not stale:
             row.update(score(row, ref))
@@ -99,7 +99,7 @@ def table(rows: list[dict], header: str) -> str:
         lines.append(f"| {r['case']} | {r['P']} | {r['method']} | {r['runs']} | {rounds} | "
                      f"{wall} | {_f(r.get('max_dmean_sd'), '.2f')} | {ratio} | "
                      f"{_f(r.get('dlog_z'), '+.2f')} | {r['own_cpu_s']:.1f} | {'yes' if r['converged'] else 'no'} | "
-                     f"{r['error'].replace('|', '/')} |")
+                     f"{r['error'].replace('|', '/')}{' (ran on an earlier definition of the case)' if r.get('reference') == 'old definition' else ''} |")
     lines += ["", "| method | cases (errors) | median max \\|Δmean\\|/sd | worst (case) | median \\|Δlog Z\\| | "
               "worst \\|Δlog Z\\| | median runs | median own CPU [s] |", "| --- | --- | ---: | --- | ---: | ---: | ---: | ---: |"]
     for m in dict.fromkeys(r["method"] for r in rows):
@@ -151,7 +151,12 @@ def main() -> None:
         start, load0, load1 = min(s["meta"][0] for s in saved), saved[0]["meta"][1], saved[-1]["meta"][2]
         for row in rows:
             path = REFS / f"{row['case']}.json"
-            if path.exists() and json.loads(path.read_text())["case_hash"] == case_hash(CASES[row["case"]]):
+            now = case_hash(CASES[row["case"]])
+            if row.get("case_hash", now) != now or row.get("reference") == "old definition":
+                row["reference"] = "old definition"  # the row ran on an earlier definition of the case
+                for key in ("max_dmean_sd", "sd_ratio_min", "sd_ratio_max", "dlog_z"):
+                    row.pop(key, None)
+            elif path.exists() and json.loads(path.read_text())["case_hash"] == now:
                 row.update(score(row, json.loads(path.read_text())), reference="ok")
     else:
         start, load0 = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), os.getloadavg()
