@@ -1,0 +1,188 @@
+"""Every method on every case of the identification suite, in one run, into one table.
+
+For each case of :mod:`benchmarks.cases` and each method of :mod:`benchmarks.methods`: model
+runs, sequential rounds with 5 concurrent workers, the wall time those rounds take with a
+10-minute model (plus the method's own compute), accuracy against the case's reference
+(``benchmarks/references/<case>.json``, made by ``scripts/make_references.py``): the largest
+|Δmean| in reference sds and the range of sd ratios over the identified parameters, Δlog Z,
+the method's own CPU time (model time excluded), its convergence flag and any error. The table
+replaces the section between the ``suite`` markers of docs/benchmarks.md.
+
+Usage (from the repository root)::
+
+    OMP_NUM_THREADS=1 python scripts/bench_identification.py
+    python scripts/bench_identification.py --cases beam2_saturating --methods emulator --quick --no-docs
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from benchmarks.cases import CASES, case_hash, make_problem  # noqa: E402
+from benchmarks.methods import TimedModel, run_method  # noqa: E402
+
+REFS = ROOT / "benchmarks" / "references"
+DOC = ROOT / "docs" / "benchmarks.md"
+BEGIN, END = "<!-- suite:begin -->", "<!-- suite:end -->"
+METHODS = ("emulator", "vbmc", "gpry")
+MODEL_MINUTES = 10.0
+
+
+def score(row: dict, ref: dict) -> dict:
+    """Accuracy of a row against the reference: max |Δmean|/sd, sd ratio range, Δlog Z."""
+    if "mean" not in row:
+        return {}
+    idx = [ref["names"].index(n) for n in ref["identified"]]
+    mean, sd = np.asarray(row["mean"])[idx], np.asarray(row["sd"])[idx]
+    rmean, rsd = np.asarray(ref["mean"])[idx], np.asarray(ref["sd"])[idx]
+    ratio = sd / rsd
+    out = {"max_dmean_sd": float(np.max(np.abs(mean - rmean) / rsd)),
+           "sd_ratio_min": float(ratio.min()), "sd_ratio_max": float(ratio.max())}
+    if row.get("log_z") is not None:
+        out["dlog_z"] = float(row["log_z"]) - ref["importance"]["log_evidence"]
+    return out
+
+
+def run_case(name: str, methods: list[str], quick: bool, seed: int) -> list[dict]:
+    """Rows of one case, one per method."""
+    case = CASES[name]
+    path = REFS / f"{name}.json"
+    ref = json.loads(path.read_text()) if path.exists() else None
+    stale = ref is not None and ref["case_hash"] != case_hash(case)
+    rows = []
+    for method in methods:
+        problem = make_problem(case, model=TimedModel(case.model()))
+        t0 = time.perf_counter()
+        row = run_method(problem, method, quick, seed)
+        row["wall_s"] = time.perf_counter() - t0
+        row["sim_wall_h"] = row["rounds"] * MODEL_MINUTES / 60 + row["own_cpu_s"] / 3600
+        row.update(case=name, method=method, P=case.n_physical, D=len(problem.names), case_hash=case_hash(case),
+                   reference="stale" if stale else ("missing" if ref is None else "ok"))
+        if ref is not None and not stale:
+            row.update(score(row, ref))
+        for key in ("mean", "sd"):
+            if key in row:
+                row[key] = np.asarray(row[key]).tolist()
+        print(json.dumps({k: v for k, v in row.items() if k not in ("mean", "sd")}), flush=True)
+        rows.append(row)
+    return rows
+
+
+def _f(v: object, fmt: str) -> str:
+    return "" if v is None else format(v, fmt)
+
+
+def table(rows: list[dict], header: str) -> str:
+    """The markdown section: per case x method rows, then per-method summaries."""
+    lines = [BEGIN, "", header, "",
+             "| case | P | method | runs | rounds (5 workers) | wall, 10-min model [h] | max \\|Δmean\\|/sd "
+             "| sd ratio | Δlog Z | own CPU [s] | converged | error |",
+             "| --- | ---: | --- | ---: | ---: | ---: | ---: | --- | ---: | ---: | --- | --- |"]
+    for r in rows:
+        ratio = f"{r['sd_ratio_min']:.2f}–{r['sd_ratio_max']:.2f}" if "sd_ratio_min" in r else ""
+        rounds, wall = ("–", "–") if r["error"] else (r["rounds"], f"{r['sim_wall_h']:.1f}")  # unknown batches
+        lines.append(f"| {r['case']} | {r['P']} | {r['method']} | {r['runs']} | {rounds} | "
+                     f"{wall} | {_f(r.get('max_dmean_sd'), '.2f')} | {ratio} | "
+                     f"{_f(r.get('dlog_z'), '+.2f')} | {r['own_cpu_s']:.1f} | {'yes' if r['converged'] else 'no'} | "
+                     f"{r['error'].replace('|', '/')}{' (ran on an earlier definition of the case)' if r.get('reference') == 'old definition' else ''} |")
+    lines += ["", "| method | cases (errors) | median max \\|Δmean\\|/sd | worst (case) | median \\|Δlog Z\\| | "
+              "worst \\|Δlog Z\\| | median runs | median own CPU [s] |", "| --- | --- | ---: | --- | ---: | ---: | ---: | ---: |"]
+    for m in dict.fromkeys(r["method"] for r in rows):
+        mine = [r for r in rows if r["method"] == m]
+        acc = [r for r in mine if "max_dmean_sd" in r]
+        dz = [abs(r["dlog_z"]) for r in mine if "dlog_z" in r]
+        worst = max(acc, key=lambda r: r["max_dmean_sd"]) if acc else None
+        worst_text = "" if worst is None else f"{worst['max_dmean_sd']:.2f} ({worst['case']})"
+        lines.append(f"| {m} | {len(mine)} ({sum(bool(r['error']) for r in mine)}) | "
+                     f"{_f(statistics.median([r['max_dmean_sd'] for r in acc]) if acc else None, '.2f')} | "
+                     f"{worst_text} | "
+                     f"{_f(statistics.median(dz) if dz else None, '.2f')} | {_f(max(dz) if dz else None, '.2f')} | "
+                     f"{statistics.median(r['runs'] for r in mine):.0f} | "
+                     f"{statistics.median(r['own_cpu_s'] for r in mine):.1f} |")
+    emu = [r for r in rows if r["method"] == "emulator" and not r["error"]]
+    groups = {p: [r["runs"] for r in emu if r["P"] == p] for p in sorted({r["P"] for r in emu})}
+    lines += ["", "Emulator, median model runs per number of physical parameters: " + ", ".join(
+        f"P = {p}: {statistics.median(v):.0f} ({len(v)} cases)" for p, v in groups.items()) + ".", "", END]
+    return "\n".join(lines)
+
+
+def write_doc(section: str) -> None:
+    """Replace the marked section of docs/benchmarks.md (append it the first time)."""
+    text = DOC.read_text()
+    if BEGIN in text and END in text:
+        text = text[: text.index(BEGIN)] + section + text[text.index(END) + len(END):]
+    else:
+        text = text.rstrip("\n") + "\n\n## Identification suite (`scripts/bench_identification.py`)\n\n" + section + "\n"
+    DOC.write_text(text)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=[*METHODS, "emcee"])
+    parser.add_argument("--quick", action="store_true", help="tiny budgets (a smoke run, not a benchmark)")
+    parser.add_argument("--out", type=Path, help="JSON file of all rows")
+    parser.add_argument("--no-docs", action="store_true", help="do not write docs/benchmarks.md")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--rescore", type=Path, nargs="+", help="score the rows of earlier --out files "
+                        "again (e.g. after making references; several: runs split by --methods) instead of running")
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    if args.rescore:
+        saved = [json.loads(f.read_text()) for f in args.rescore]
+        rows = [r for s in saved for r in s["rows"]]
+        order = {c: i for i, c in enumerate(CASES)}
+        rows.sort(key=lambda r: (order[r["case"]], [*METHODS, "emcee"].index(r["method"])))
+        start, load0, load1 = min(s["meta"][0] for s in saved), saved[0]["meta"][1], saved[-1]["meta"][2]
+        for row in rows:
+            path = REFS / f"{row['case']}.json"
+            now = case_hash(CASES[row["case"]])
+            if row.get("case_hash", now) != now or row.get("reference") == "old definition":
+                row["reference"] = "old definition"  # the row ran on an earlier definition of the case
+                for key in ("max_dmean_sd", "sd_ratio_min", "sd_ratio_max", "dlog_z"):
+                    row.pop(key, None)
+            elif path.exists() and json.loads(path.read_text())["case_hash"] == now:
+                row.update(score(row, json.loads(path.read_text())), reference="ok")
+    else:
+        start, load0 = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), os.getloadavg()
+        rows = []
+        for name in args.cases:
+            rows += run_case(name, args.methods, args.quick, args.seed)
+            if args.out:  # after every case, so that a long run can be scored while it goes on
+                args.out.write_text(json.dumps({"meta": [start, load0, os.getloadavg()], "rows": rows}) + "\n")
+        load1 = os.getloadavg()
+    how = (f"{len(args.rescore)} runs of `scripts/bench_identification.py`, one per `--methods`, side by side, "
+           f"merged by `--rescore`," if args.rescore and len(args.rescore) > 1 else
+           f"Run of `scripts/bench_identification.py{' --quick' if args.quick else ''}`")
+    header = (f"{how} started {start}, "
+              f"{platform.machine()}, torch {torch.__version__} on 1 thread; load average (1, 5, 15 min) "
+              f"{', '.join(f'{v:.1f}' for v in load0)} at the start, {', '.join(f'{v:.1f}' for v in load1)} at "
+              f"the end (2 shared cores: CPU times are the comparable figures). Runs: distinct model runs; "
+              f"rounds: sequential rounds with 5 concurrent runs; wall: rounds x 10 min + own CPU; accuracy "
+              f"over the parameters the reference identifies; Δlog Z: the method's log evidence (ELBO for "
+              f"VBMC) minus the reference's.")
+    if args.out:
+        args.out.write_text(json.dumps({"meta": [start, load0, load1], "rows": rows}) + "\n")
+    section = table(rows, header)
+    print(section)
+    if not args.no_docs:
+        write_doc(section)
+
+
+if __name__ == "__main__":
+    main()

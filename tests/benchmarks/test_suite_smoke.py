@@ -1,0 +1,64 @@
+"""Smoke test of the identification suite (the full run is ``scripts/bench_identification.py``).
+
+Every case builds a Problem whose log joint is finite at the truth, its reference JSON exists
+and was made from the current case definition; the runner runs one case end to end with tiny
+budgets and writes its table.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+
+from benchmarks.cases import CASES, case_hash, make_problem, truth_vector  # noqa: E402
+
+REFS = ROOT / "benchmarks" / "references"
+
+
+def test_suite_covers_what_it_must() -> None:
+    cases = list(CASES.values())
+    assert len(cases) >= 10
+    assert {c.n_physical for c in cases} >= {2, 3, 4, 6}
+    assert {c.kernel for c in cases} == {"independent", "exponential", "matern32", "matern52",
+                                          "squared_exponential"}
+    assert any(c.dropouts for c in cases) and any(c.data_sigma_m < c.sigma_m for c in cases)
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_case_problem_and_reference(name: str) -> None:
+    case = CASES[name]
+    problem = make_problem(case)
+    value = float(problem.log_joint(truth_vector(case, list(problem.names))))
+    assert np.isfinite(value)
+    path = REFS / f"{name}.json"
+    if not path.exists():  # the suite's table shows such a case as "missing" too
+        pytest.skip(f"no reference yet: python scripts/make_references.py --case {name}")
+    ref = json.loads(path.read_text())
+    assert ref["case_hash"] == case_hash(case), f"stale reference: rerun scripts/make_references.py --case {name}"
+    assert ref["names"] == list(problem.names)
+    assert min(c["n_over_tau"] for c in ref["chains"]) >= 50
+    assert np.isfinite(ref["importance"]["log_evidence"])
+
+
+@pytest.mark.slow
+def test_runner_quick(tmp_path: Path) -> None:
+    out = tmp_path / "rows.json"
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "bench_identification.py"), "--cases", "beam2_saturating",
+         "--methods", "emulator", "vbmc", "--quick", "--no-docs", "--out", str(out)],
+        cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    rows = json.loads(out.read_text())["rows"]
+    assert [r["method"] for r in rows] == ["emulator", "vbmc"]
+    for r in rows:
+        assert r["runs"] > 0 and r["rounds"] > 0 and r["own_cpu_s"] > 0
+        assert r["error"] or "max_dmean_sd" in r
+    assert "<!-- suite:begin -->" in proc.stdout and "| beam2_saturating | 2 | emulator |" in proc.stdout
