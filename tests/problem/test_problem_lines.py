@@ -134,10 +134,3 @@ def test_per_line_noise_and_predictive_view(rng: np.random.Generator) -> None:
     assert Problem(TwoLineModel(), campaign(rng), "matern32", PRIORS, sigma_e=0.3).sigma_e == 0.3
     view = prediction_view(p)  # the predictive draws each line with its own noise
     assert [(part.line, part.sigma_e) for part in view.parts] == [("bottom", 0.2), ("top", 0.4)]
-
-
-def test_emulator_method_takes_one_complete_line(rng: np.random.Generator) -> None:
-    import torchshm
-
-    with pytest.raises(ValueError, match="method='emulator': one sensor line with every reading valid only"):
-        torchshm.identify(Problem(TwoLineModel(), campaign(rng), "matern32", PRIORS), method="emulator")
