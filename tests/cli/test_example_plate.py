@@ -44,7 +44,7 @@ def test_readme_run_identifies_every_parameter_within_its_95_interval(tmp_path: 
         rows = {r["name"]: r for r in csv.DictReader(line for line in f if not line.startswith("#"))}
     for name, value in TRUTH.items():
         assert float(rows[name]["q2.5"]) < value < float(rows[name]["q97.5"]), (name, rows[name])
-    for name in ("posterior.nc", "corner.png", "elbo.png", "identify.log", "predictive.csv",
+    for name in ("posterior.nc", "corner.png", "trace.png", "identify.log", "predictive.csv",
                  "predictive_map_0.75.png", "predictive_map_1.25.png"):
         assert (tmp_path / "run" / name).is_file(), name
     held_out = [row for row in record["predictive"] if row["line"] == "all"]
