@@ -1,12 +1,25 @@
-"""Shared pytest configuration: float64 by default, fixed seeds."""
+"""Shared pytest configuration: float64 by default, fixed seeds, one thread per test process.
+
+Under pytest-xdist (``-n``) each worker process runs on one thread, and so do the programs its
+tests start (``OMP_NUM_THREADS`` is inherited): two workers on two cores with two threads each
+would spin against each other.
+"""
 
 from __future__ import annotations
+
+import os
+
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    for _name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+        os.environ[_name] = "1"
 
 import numpy as np
 import pytest
 import torch
 
 torch.set_default_dtype(torch.float64)
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    torch.set_num_threads(1)
 
 
 @pytest.fixture

@@ -21,7 +21,10 @@ def main(argv: list[str]) -> None:
     if len(argv) > 7:
         go = argv[7]
         open(f"{go}.ready.{os.getpid()}", "w").close()
+        given_up = time.monotonic() + 900.0  # the test died before its signal: leave
         while not os.path.exists(go):
+            if time.monotonic() > given_up:
+                sys.exit("no start signal after 900 s")
             time.sleep(0.01)
     theta = grid(int(n_e), int(n_k))[int(first) : int(stop)]
     result = evaluate(GridModel(delay=float(delay), counter=counter), theta, store=store)

@@ -30,12 +30,18 @@ def _run_together(store: Path, counter: Path, delay: float, ranges: list[tuple[i
         )
         for first, stop in ranges
     ]
-    deadline = time.monotonic() + 60.0
-    while len(list(store.parent.glob("go.ready.*"))) < len(ranges):
-        assert time.monotonic() < deadline and all(p.poll() is None for p in processes)
-        time.sleep(0.01)
-    go.touch()
-    outputs = [p.communicate(timeout=120)[0].decode() for p in processes]
+    try:
+        deadline = time.monotonic() + 300.0  # starting Python with torch on a loaded machine
+        while len(list(store.parent.glob("go.ready.*"))) < len(ranges):
+            assert time.monotonic() < deadline and all(p.poll() is None for p in processes)
+            time.sleep(0.01)
+        go.touch()
+        outputs = [p.communicate(timeout=300)[0].decode() for p in processes]
+    finally:
+        for p in processes:  # never leave a writer waiting for its start signal
+            if p.poll() is None:
+                p.kill()
+                p.wait()
     assert [p.returncode for p in processes] == [0] * len(ranges), outputs
 
 
