@@ -7,10 +7,12 @@ The steps, one round at a time:
    another kernel or resolution, are used too);
 2. fit the field emulator of the measured strains over θp (:mod:`.field`);
 3. sample the posterior of all parameters on the emulated likelihood, which carries the
-   emulator's variance (:mod:`.likelihood`, :mod:`.sampling`; no model run);
+   emulator's variance (:mod:`.likelihood`, :mod:`.sampling`; no model run), the walkers first
+   spread over the modes found by a multi-start search (:mod:`.modes`);
 4. check the stop rule: the total variation between this round's posterior and the previous
-   one's is below ``tv_tol`` in ``patience`` successive rounds, and the emulator causes less
-   than ``sd_tol`` nats of log-likelihood uncertainty on average over the posterior; or the
+   one's is below ``tv_tol`` in ``patience`` successive rounds, the emulator causes less
+   than ``sd_tol`` nats of log-likelihood uncertainty on average over the posterior, and the
+   batch just run was predicted within ``check_tol`` nats (:mod:`.validation`); or the
    budget of model runs is spent;
 5. otherwise choose the next batch where the emulator's uncertainty matters most under the
    posterior (:mod:`.acquisition`) and go to 1.
@@ -69,11 +71,13 @@ def run_emulator(
         executor: a submitit executor (:func:`torchshm.storage.make_executor`; needs a store).
         n_initial: size of the initial design (None: the smallest multiple of ``batch_size``
             of at least ``2 P + 1``).
-        n_walkers: emcee walkers (None: ``max(48, 8 D)``: a likelihood call costs about the
-            same for 10 or 50 walkers, so many walkers and few steps are cheaper than the reverse).
-        n_steps: emcee steps per round (the second half is kept; three times as many in round
-            0, whose walkers start from the prior).
-        final_steps: emcee steps on the last emulator, to fit the posterior's mixture density.
+        n_walkers: emcee walkers (None: ``max(96, 12 D)``: a likelihood call costs about the
+            same for 10 or 50 walkers and emcee makes two calls per step, so many walkers and
+            few steps are cheaper than the reverse).
+        n_steps: emcee steps per round (the second half is kept; twice as many in round 0,
+            whose walkers start from the prior).
+        final_steps: emcee steps on the last emulator after the last round's chain (which ran
+            on it), whose samples together fit the posterior's mixture density.
         tv_tol, patience: stop once the total variation to the previous round's posterior is
             below ``tv_tol`` in ``patience`` successive rounds...
         sd_tol: ...the emulator's log-likelihood sd, averaged over the posterior, is below
@@ -90,7 +94,7 @@ def run_emulator(
 
     The method's own work is many small batched tensor operations: it runs on one torch thread
     (restored afterwards), which on a busy machine is several times faster than threads that
-    wait for each other (the main job: 17 s of CPU on one thread; 227 s with two at load 3).
+    wait for each other (the main job: 11–17 s of CPU on one thread; 227 s with two at load 3).
     """
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # small batched operations: one thread, no spinning on a busy machine
