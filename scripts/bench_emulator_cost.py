@@ -17,12 +17,17 @@ import cProfile
 import json
 import os
 import pstats
+import sys
 import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's torchshm
 
 #: functions whose cumulative time is reported, by a part of their qualified name
 STEPS = {
     "field emulator fits": "adaptive/field.py:fit",
     "chains (emcee on the emulated likelihood)": "adaptive/sampling.py:run_chain",
+    "mode search": "adaptive/modes.py:find_modes",
     "mixture density": "adaptive/sampling.py:fit_density",
     "evidence (importance sampling)": "adaptive/sampling.py:importance",
     "batch choice": "adaptive/acquisition.py:choose_batch",

@@ -70,7 +70,7 @@ class FieldEmulator:
         warm = None if previous is None else previous.surrogate.gp.hyperparameters()
         fit = fit_field(theta_p, outputs, transform=dict(PLAIN_TRANSFORM if transform is None else transform),
                         kernel=kernel, lengthscales=(0.2, 0.5, 1.0) if warm is None else (0.5,),
-                        max_iter=200 if warm is None else 100, warm=warm, what="emulator")
+                        max_iter=100 if warm is None else 40, warm=warm, what="emulator")
         theta, out, gp, scaling, log_ml = (fit.theta_p, fit.outputs, fit.gp, fit.transform,
                                            fit.log_marginal_likelihood)
         names = tuple(f"theta_p[{i}]" for i in range(theta.shape[1]))

@@ -7,10 +7,12 @@ The steps, one round at a time:
    another kernel or resolution, are used too);
 2. fit the field emulator of the measured strains over θp (:mod:`.field`);
 3. sample the posterior of all parameters on the emulated likelihood, which carries the
-   emulator's variance (:mod:`.likelihood`, :mod:`.sampling`; no model run);
+   emulator's variance (:mod:`.likelihood`, :mod:`.sampling`; no model run), the walkers first
+   spread over the modes found by a multi-start search (:mod:`.modes`);
 4. check the stop rule: the total variation between this round's posterior and the previous
-   one's is below ``tv_tol`` in ``patience`` successive rounds, and the emulator causes less
-   than ``sd_tol`` nats of log-likelihood uncertainty on average over the posterior; or the
+   one's is below ``tv_tol`` in ``patience`` successive rounds, the emulator causes less
+   than ``sd_tol`` nats of log-likelihood uncertainty on average over the posterior, and the
+   batch just run was predicted within ``check_tol`` nats (:mod:`.validation`); or the
    budget of model runs is spent;
 5. otherwise choose the next batch where the emulator's uncertainty matters most under the
    posterior (:mod:`.acquisition`) and go to 1.
@@ -31,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import torch
 
+from torchshm.inference.adaptive import modes as mode_search
 from torchshm.inference.adaptive import sampling
 from torchshm.inference.adaptive.acquisition import choose_batch, design
 from torchshm.inference.adaptive.field import FieldEmulator, model_transform
@@ -49,8 +52,8 @@ logger = logging.getLogger(__name__)
 def run_emulator(
     problem: Problem, seed: int = 0, *, log_dir: str | Path | None = None, batch_size: int = 5,
     max_model_evaluations: int | None = None, n_jobs: int = 1, executor: Any | None = None,
-    n_initial: int | None = None, n_walkers: int | None = None, n_steps: int = 100,
-    final_steps: int = 200, tv_tol: float = 0.05, patience: int = 2, sd_tol: float = 0.3,
+    n_initial: int | None = None, n_walkers: int | None = None, n_steps: int = 50,
+    final_steps: int = 50, tv_tol: float = 0.05, patience: int = 1, sd_tol: float = 0.3,
     check_tol: float = 1.0, n_evidence: int = 8000, emulator_kernel: str = "matern52",
 ) -> Posterior:
     """Identify ``problem`` with the adaptive field emulator (see :func:`torchshm.identify`).
@@ -68,11 +71,13 @@ def run_emulator(
         executor: a submitit executor (:func:`torchshm.storage.make_executor`; needs a store).
         n_initial: size of the initial design (None: the smallest multiple of ``batch_size``
             of at least ``2 P + 1``).
-        n_walkers: emcee walkers (None: ``max(48, 8 D)``: a likelihood call costs about the
-            same for 10 or 50 walkers, so many walkers and few steps are cheaper than the reverse).
-        n_steps: emcee steps per round (the second half is kept; three times as many in round
-            0, whose walkers start from the prior).
-        final_steps: emcee steps on the last emulator, to fit the posterior's mixture density.
+        n_walkers: emcee walkers (None: ``max(96, 12 D)``: a likelihood call costs about the
+            same for 10 or 50 walkers and emcee makes two calls per step, so many walkers and
+            few steps are cheaper than the reverse).
+        n_steps: emcee steps per round (the second half is kept; twice as many in round 0,
+            whose walkers start from the prior).
+        final_steps: emcee steps on the last emulator after the last round's chain (which ran
+            on it), whose samples together fit the posterior's mixture density.
         tv_tol, patience: stop once the total variation to the previous round's posterior is
             below ``tv_tol`` in ``patience`` successive rounds...
         sd_tol: ...the emulator's log-likelihood sd, averaged over the posterior, is below
@@ -89,7 +94,7 @@ def run_emulator(
 
     The method's own work is many small batched tensor operations: it runs on one torch thread
     (restored afterwards), which on a busy machine is several times faster than threads that
-    wait for each other (the main job: 17 s of CPU on one thread; 227 s with two at load 3).
+    wait for each other (the main job: 11–17 s of CPU on one thread; 227 s with two at load 3).
     """
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # small batched operations: one thread, no spinning on a busy machine
@@ -117,7 +122,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     if max_model_evaluations is None:
         max_model_evaluations = default_cap(dim, n_initial, batch_size)
     budget = _positive("max_model_evaluations", max_model_evaluations, minimum=0)
-    n_walkers = int(n_walkers or max(48, 8 * dim))
+    n_walkers = int(n_walkers or max(96, 12 * dim))
     transform = model_transform(problem.model)
     rng = np.random.default_rng([seed, 29])
     runs = RunSet.from_problem(problem)
@@ -135,6 +140,9 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     emulator: FieldEmulator | None = None
     prev_samples: np.ndarray | None = None
     calm, converged, inflation = 0, False, 1.0
+    columns = ([names.index(n) for n in problem.physical_names if n in names],
+               [i for i, n in enumerate(problem.physical_names) if n in names])
+    n_modes = 1
     x_index, loads = torch.arange(problem.y.shape[1], dtype=torch.float64), _loads(problem)
     if n_reused:
         logger.info("resumed: %d runs from the store", n_reused)
@@ -151,8 +159,10 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             emulator = FieldEmulator.fit(runs.theta_p, runs.outputs, x_index, loads, transform,
                                          emulator_kernel, previous=emulator)
             log_joint = EmulatedLogJoint(problem, emulator, inflation)
-            steps = n_steps if r > 0 else 3 * n_steps
-            samples, walkers = sampling.run_chain(log_joint, walkers, steps, seed + 1000 * r)
+            steps = n_steps if r > 0 else 2 * n_steps
+            walkers, n_modes = _spread(log_joint, walkers, runs, columns, hard, plausible, rng)
+            samples, walkers = sampling.run_chain(log_joint, walkers, steps, seed + 1000 * r,
+                                                  hop=n_modes > 1)
             pick = rng.choice(samples.shape[0], min(600, samples.shape[0]), False)
             draws = samples[pick]
             tv = (sampling.total_variation(log_joint(draws), previous(draws))
@@ -165,7 +175,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             row = {"round": float(r), "n_runs": float(len(batch)), "n_new_runs": float(new),
                    "n_model_evaluations": float(runs.n_new), "n_emulator_runs":
                    float(runs.theta_p.shape[0]), "tv": tv, "mmtv": mmtv,
-                   "emulator_share": float(share.mean()), "emulator_share_max": float(share.max()),
+                   "n_modes": float(n_modes), "emulator_share": float(share.mean()), "emulator_share_max": float(share.max()),
                    "emulator_loglik_sd": float(sd.mean()), "emulator_inflation": inflation,
                    "check_loglik_error": check.max_error if check is not None else np.nan,
                    "wall_time_s": time.perf_counter() - t_round}
@@ -191,11 +201,26 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             previous, prev_samples = log_joint, samples
     finally:
         trace.close()
-    return _posterior(problem, log_joint, walkers, rounds, runs, trace, converged, seed, {
+    return _posterior(problem, log_joint, walkers, samples, rounds, runs, trace, converged, seed, {
         "n_final_steps": final_steps, "n_walkers": n_walkers, "n_evidence": n_evidence,
         "n_reused_runs": n_reused, "budget": budget, "t0": t0, "hard": hard,
-        "plausible": plausible,
+        "plausible": plausible, "hop": n_modes > 1,
     })
+
+
+def _spread(log_joint: EmulatedLogJoint, walkers: np.ndarray, runs: RunSet,
+            columns: tuple[list[int], list[int]], hard: np.ndarray, plausible: np.ndarray,
+            rng: np.random.Generator) -> tuple[np.ndarray, int]:
+    """The walkers spread over the modes of ``log_joint`` (:mod:`.modes`) and the number of
+    modes that hold walkers."""
+    starts = mode_search.starts_from(log_joint, walkers, runs.theta_p, columns, plausible, rng)
+    modes, values = mode_search.find_modes(log_joint, starts, hard, plausible)
+    if modes.shape[0] == 0:
+        return walkers, 1
+    gap = sampling.straggler_gap(walkers.shape[1])
+    scale = plausible[:, 1] - plausible[:, 0]
+    walkers = mode_search.spread_walkers(walkers, modes, values, gap, scale, rng)
+    return walkers, max(1, int((values >= values.max() - gap).sum()))
 
 
 def default_cap(dim: int, n_initial: int, batch_size: int) -> int:
@@ -205,10 +230,16 @@ def default_cap(dim: int, n_initial: int, batch_size: int) -> int:
 
 
 def _posterior(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray,
+               last: np.ndarray,
                rounds: list[dict[str, Any]], runs: RunSet, trace: RunTrace, converged: bool,
                seed: int, extra: dict[str, Any]) -> Posterior:
-    """Final chain, mixture density and evidence on the last emulator; the Posterior."""
-    chain, _ = sampling.run_chain(log_joint, walkers, extra["n_final_steps"], seed + 7)
+    """Final chain (the last round's samples ``last`` `S x D` and ``n_final_steps`` more),
+    mixture density and evidence on the last emulator; the Posterior."""
+    chain = last  # the last round's chain is on this same emulator: continue it
+    if extra["n_final_steps"] > 0:
+        more, _ = sampling.run_chain(log_joint, walkers, extra["n_final_steps"], seed + 7,
+                                     hop=extra["hop"])
+        chain = np.concatenate([last, more])
     vp = sampling.fit_density(chain, extra["hard"], extra["plausible"], seed)
     log_z, log_z_sd, ess, samples = sampling.importance(log_joint, vp, extra["n_evidence"], seed)
     if not converged:

@@ -25,8 +25,12 @@ LogDensity = Callable[[np.ndarray], np.ndarray]
 
 
 def run_chain(log_joint: LogDensity, start: np.ndarray, n_steps: int, seed: int,
-              ) -> tuple[np.ndarray, np.ndarray]:
+              hop: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """emcee from walkers ``start`` `W x D` for ``n_steps``; the second half is kept.
+
+    With ``hop`` (walkers in several modes, :mod:`.modes`) a fifth of the moves are
+    differential-evolution jumps by the whole difference of two walkers (``gamma = 1``), which
+    carry walkers between modes so that the chain sets the modes' shares.
 
     Stragglers (walkers far below the others in log density, see :func:`straggler_gap`) are
     moved onto good walkers before the chain, and the samples of a walker that still lags in
@@ -38,7 +42,9 @@ def run_chain(log_joint: LogDensity, start: np.ndarray, n_steps: int, seed: int,
     """
     n_walkers, dim = start.shape
     start = regroup(log_joint, start, seed)
-    sampler = emcee.EnsembleSampler(n_walkers, dim, log_joint, vectorize=True)
+    moves = [(emcee.moves.StretchMove(), 0.8), (emcee.moves.DEMove(gamma0=1.0), 0.2)] if hop \
+        else None
+    sampler = emcee.EnsembleSampler(n_walkers, dim, log_joint, vectorize=True, moves=moves)
     state = emcee.State(start, random_state=np.random.RandomState(seed).get_state())
     sampler.run_mcmc(state, int(n_steps), progress=False)
     chain = sampler.get_chain()[int(n_steps) // 2:]
