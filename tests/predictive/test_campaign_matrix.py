@@ -6,7 +6,8 @@ fibres with 5 % dropouts and a 40 cm gap per load case; positions between the mo
 run end to end (none refused); the budgets are far below convergence, so the tests check that
 every output exists and is finite, not its accuracy (``scripts/bench_campaigns.py`` measures
 that). The CLI runs once per campaign shape, in-process, with the model given by a model
-config (``model._target_``) as a user's would be.
+config (``model._target_``) as a user's would be, with emcee (the cheapest method at a tiny
+budget; the matrix runs the CLI's steps for every method).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from torchshm.predictive import bayes_factors, kl_divergence, metrics_table, pos
 #: budgets far below convergence: each identification costs a few seconds of CPU
 BUDGETS = {
     "vbmc": {"max_fun_evals": 20, "display": "off", "n_samples": 600},
-    "emcee": {"n_walkers": 40, "n_steps": 20, "burn": 4},  # 640 kept draws: enough for KL's mixture
+    "emcee": {"n_walkers": 40, "burn": 4},  # n_steps: 100 D kept draws, the fewest KL's mixture takes
     "emulator": {"max_model_evaluations": 10, "n_walkers": 24, "n_steps": 20, "final_steps": 30,
                  "n_evidence": 600},
 }
@@ -39,7 +40,10 @@ BUDGETS = {
 @pytest.mark.parametrize("kind", CAMPAIGNS)
 def test_every_method_on_every_campaign(kind: str, method: str) -> None:
     problem, held_out = campaign_problem(kind, resolution=0.5)
-    post = torchshm.identify(problem, method, seed=0, **BUDGETS[method])
+    options = dict(BUDGETS[method])
+    if method == "emcee":
+        options["n_steps"] = 4 + math.ceil(100 * len(problem.names) / 40)
+    post = torchshm.identify(problem, method, seed=0, **options)
     assert np.isfinite(post.samples).all() and post.samples.shape[1] == len(problem.names)
 
     loads = [float(v) for v in held_out.loads]
@@ -93,8 +97,8 @@ def test_the_cli_writes_every_output_on_every_campaign(kind: str, tmp_path: Path
     from torchshm.cli.job import prepare_job, run_job
 
     register_configs()
-    overrides = ["method=emulator", "method.max_model_evaluations=6", "method.n_steps=20",
-                 "method.final_steps=30", "predict.n=100",
+    overrides = ["method=emcee", "method.n_walkers=24", "method.n_steps=12", "method.burn=2",
+                 "method.log_every=5", "predict.n=100",
                  *_cli_overrides(kind, tmp_path)]
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
         settings = to_settings(compose(CONFIG_NAME, overrides=overrides))
@@ -106,4 +110,6 @@ def test_the_cli_writes_every_output_on_every_campaign(kind: str, tmp_path: Path
         else ["predictive_plot"]
     assert figures and all(result.files[k].stat().st_size > 10_000 for k in figures)
     record = json.loads(result.files["run"].read_text())
-    assert record["predictive"] and math.isfinite(record["information"]["kl"])
+    assert record["predictive"]
+    info = record["information"]  # 240 draws: too few for KL's mixture in 4-6 dimensions, said so
+    assert math.isfinite(info["kl"]) if info["kl"] is not None else "too few" in info["kl_reason"]
