@@ -47,11 +47,18 @@ def campaign(kind: str, n_design: int = 12, n_samples: int = 400, seed: int = 0)
     return Campaign(problem, held_out, post)
 
 
+def campaign_problem(kind: str, resolution: float | None = None) -> tuple[Problem, Measurements]:
+    """The campaign ``kind``'s problem (no model run yet) and its held-out measurements; the
+    bridge's fibres read every ``resolution`` m (None: every 0.1 m)."""
+    problem, held_out, _, _ = _problem(kind, resolution)
+    return problem, held_out
+
+
 def _base(name: str) -> str:
     return name.split("[")[0]
 
 
-def _problem(kind: str) -> tuple[Problem, Measurements, dict, dict]:
+def _problem(kind: str, resolution: float | None = None) -> tuple[Problem, Measurements, dict, dict]:
     bridge = ({"E_c": 35.0, "log10_K_r": 8.0, "sigma_a": 1.0, "length": 1.5},
               {"E_c": 0.5, "log10_K_r": 0.1, "sigma_a": 0.1, "length": 0.2})
     if kind == "plate":
@@ -71,6 +78,8 @@ def _problem(kind: str) -> tuple[Problem, Measurements, dict, dict]:
             {"E": 0.7, "log10_k": 0.08, "sigma_a": 0.4, "length": 0.04}
     lines = 1 if kind in ("one_fibre", "interpolate") else 2
     data = torchshm.synthetic_campaign(0, lines=lines)
+    if resolution is not None:
+        data = data.downsample(resolution)
     model = torchshm.bridge705(lines=lines)
     if kind == "two_fibres_dropouts":
         data = with_dropouts(data, fraction=0.05, gap=0.4, seed=1)
