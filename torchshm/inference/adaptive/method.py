@@ -145,7 +145,9 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     n_modes = 1
     x_index, loads = torch.arange(problem.y.shape[1], dtype=torch.float64), _loads(problem)
     if n_reused:
-        logger.info("resumed: %d runs from the store", n_reused)
+        where = ("from the store" if problem.store is not None
+                 else "made earlier by this problem (e.g. the output check)")
+        logger.info("resumed: %d runs %s", n_reused, where)
     try:
         for r in range(budget + 1):
             t_round = time.perf_counter()
