@@ -13,9 +13,9 @@ __version__ = "0.1.0"
 
 #: public name -> sub-package that defines it
 _EXPORTS: dict[str, str] = {
-    "bridge705": "torchshm.physics",
-    "Bridge705": "torchshm.physics",
-    "synthetic_campaign": "torchshm.data",
+    "bridge705": "torchshm.casestudy",
+    "Bridge705": "torchshm.casestudy",
+    "synthetic_campaign": "torchshm.casestudy",
     "Measurements": "torchshm.data",
     "load_measurements": "torchshm.data",
     "KERNELS": "torchshm.kernels",
@@ -25,10 +25,10 @@ _EXPORTS: dict[str, str] = {
     "Uniform": "torchshm.priors",
     "Gamma": "torchshm.priors",
     "Normal": "torchshm.priors",
-    "paper_priors": "torchshm.priors",
+    "paper_priors": "torchshm.casestudy",
     "fit_surrogate": "torchshm.surrogate",
     "load_surrogate": "torchshm.surrogate",
-    "bridge705_surrogate": "torchshm.physics.surrogate",
+    "bridge705_surrogate": "torchshm.casestudy",
     "ExternalModel": "torchshm.forward",
     "TemplateModel": "torchshm.forward",
     "CalculixStrain": "torchshm.forward",

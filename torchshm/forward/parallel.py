@@ -36,7 +36,8 @@ class ParallelModel:
         cores_env: the program's own thread variables, set to ``cores_per_run`` too.
 
     Attributes:
-        x, loads, names: those of ``model`` (``names`` only when it declares them).
+        x, loads, names, default_priors: those of ``model`` (``names`` and ``default_priors``
+            only when it declares them).
         identity: ``model``'s identity in an evaluation store.
         model: the model as the workers run it (wrapped in
             :class:`~torchshm.forward.cores.CoresPerRun` when ``cores_per_run`` is given).
@@ -63,6 +64,8 @@ class ParallelModel:
         self.identity = model_identity(model)
         if getattr(model, "names", None) is not None:
             self.names = model.names
+        if getattr(model, "default_priors", None) is not None:
+            self.default_priors = model.default_priors
 
     def __call__(self, theta_p: object) -> Tensor:
         """Strains `... x L x n` [µε] for `... x P`; NaN rows where a run failed."""

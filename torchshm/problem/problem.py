@@ -21,7 +21,7 @@ from torchshm.data.positions import match_positions
 from torchshm.kernels import Kernel, get_kernel
 from torchshm.arrays import as_float64, as_numpy
 from torchshm.likelihood.blocks import blocks_log_likelihood, make_blocks
-from torchshm.priors import Prior, paper_priors
+from torchshm.priors import Prior
 from torchshm.problem.matching import match_measured
 from torchshm.problem.parameters import NOISE, ParameterSplit, read_priors
 from torchshm.problem.prior import JointPrior
@@ -46,10 +46,11 @@ class Problem:
             readings are left out of their own load case's block.
         kernel: discrepancy kernel name (:data:`torchshm.kernels.KERNELS`) or instance.
         priors: name -> :class:`~torchshm.priors.Prior` or a number (fixes the parameter);
-            ``None`` means :func:`~torchshm.priors.paper_priors`. Entries other than ``sigma_a``
-            and ``length`` are the physical parameters, passed to the model in this order (in
-            ``model.names`` order when the model declares names). A ``length`` entry is dropped
-            for a kernel without length.
+            ``None`` means the model's own, ``model.default_priors()`` (bridge 705's model and
+            shipped surrogate give the paper's); a model without them needs priors. Entries
+            other than ``sigma_a`` and ``length`` are the physical parameters, passed to the
+            model in this order (in ``model.names`` order when the model declares names). A
+            ``length`` entry is dropped for a kernel without length.
         sigma_m: standard deviation of the multiplicative model error, >= 0; or a prior (e.g.
             ``Uniform(0, 0.2)``), which makes ``sigma_m`` an inferred parameter (after the
             discrepancy's) so the data decide how much of the misfit scales with the strains.
@@ -99,7 +100,7 @@ class Problem:
         if discrepancy not in ("shared", "per_line"):
             raise ValueError(f"Problem: discrepancy must be 'shared' or 'per_line', got {discrepancy!r}")
         self.kernel = get_kernel(kernel)
-        given = dict(paper_priors() if priors is None else priors)
+        given = dict(_default_priors(model) if priors is None else priors)
         noise_priors = {n: given.pop(n) for n in NOISE if n in given}
         if hasattr(sigma_m, "log_prob"):
             noise_priors["sigma_m"] = sigma_m
@@ -295,6 +296,15 @@ class Problem:
             f"Problem(kernel={self.kernel.name!r}, names={self.names}, "
             f"loads={len(self.load_index)}, n={self._x.shape[0]})"
         )
+
+
+def _default_priors(model: Any) -> Mapping[str, Prior | float]:
+    """``model.default_priors()``: the priors of ``Problem(priors=None)``."""
+    make = getattr(model, "default_priors", None)
+    if make is None:
+        raise ValueError(f"Problem: {type(model).__name__} declares no default_priors(); give priors= "
+                         "(name -> Prior or number: the physical parameters, sigma_a, length)")
+    return make()
 
 
 def _nan_to_neg_inf(value: Tensor) -> Tensor:
