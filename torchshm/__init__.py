@@ -33,7 +33,7 @@ _EXPORTS: dict[str, str] = {
     "TemplateModel": "torchshm.forward",
     "CalculixStrain": "torchshm.forward",
     "UMBridgeModel": "torchshm.forward",
-    "ParallelModel": "torchshm.forward",
+    "ParallelModel": "torchshm.storage",
     "EvaluationStore": "torchshm.storage",
     "EvaluationResult": "torchshm.storage",
     "evaluate": "torchshm.storage",

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 from torchshm.config import Config, DataConfig, build_priors, method_options, parameter_labels
 from torchshm.cli import outputs
 from torchshm.cli.models import instantiate_model, runs_report, with_executor
-from torchshm.forward.parallel import ParallelModel
+from torchshm.storage.parallel import ParallelModel
 from torchshm.inference.method_checks import charge_check
 from torchshm.inference.validate import check_model_output, validate
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from torchshm.data.measurements import Measurements, load_measurements
+from torchshm.data.loading import load_measurements
+from torchshm.data.measurements import Measurements
 
 __all__ = ["Measurements", "load_measurements", "flag_anomalies", "with_dropouts"]
 
