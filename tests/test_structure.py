@@ -1,6 +1,7 @@
-"""The import graph, read from the source (no import is run): the generic packages never import
-the bridge 705 case study, and no file of ``torchshm/`` or ``benchmarks/`` imports itself back
-through others (a circle), lazy imports inside functions and ``TYPE_CHECKING`` ones included."""
+"""The structure of the library, read from the source (no import is run): the generic packages
+never import the bridge 705 case study, no file of ``torchshm/`` or ``benchmarks/`` imports
+itself back through others (a circle; lazy imports inside functions and ``TYPE_CHECKING`` ones
+included), and no library file is over 300 lines."""
 
 from __future__ import annotations
 
@@ -8,6 +9,8 @@ import ast
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+#: the most lines of one library module
+MAX_LINES = 300
 #: packages of torchshm that sit above the library and may import the case study
 APPLICATIONS = ("casestudy", "cli")
 
@@ -101,3 +104,9 @@ def test_the_reading_sees_imports() -> None:
     model = ROOT / "torchshm" / "casestudy" / "model.py"
     assert ROOT / "torchshm" / "casestudy" / "priors.py" in graph[model]
     assert ROOT / "torchshm" / "storage" / "evaluate.py" in graph[ROOT / "torchshm" / "storage" / "parallel.py"]
+
+
+def test_no_library_file_over_300_lines() -> None:
+    long = {str(p.relative_to(ROOT)): n for p in sorted((ROOT / "torchshm").rglob("*.py"))
+            if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
+    assert long == {}
