@@ -17,13 +17,16 @@ import logging
 import math
 import tempfile
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 import torch
 
 from torchshm.inference.method_checks import check_method_options, first_point
 from torchshm.inference.registry import get_method, method_names
+
+if TYPE_CHECKING:
+    from torchshm.problem import Problem
 
 logger = logging.getLogger(__name__)
 
@@ -103,7 +106,7 @@ def _check_range(method: str, key: str, value: Any, kind: str, minimum: float) -
         raise ValueError(f"identify: method={method!r}: {key} (method.{key}) must be {want}, got {value!r}")
 
 
-def check_problem(problem: Any) -> None:
+def check_problem(problem: Problem) -> None:
     """Refuse bounds and noise levels no method can work with (one-sided bounds are left to
     the methods): NaN or inverted bounds, a plausible box that is not finite or not inside the
     hard bounds, negative or non-finite σm, σe, and σm = σe = 0 with σa allowed to reach 0."""
@@ -137,7 +140,7 @@ def check_problem(problem: Any) -> None:
                              "of Eq. (21) is then singular; give sigma_e > 0 (the sensor noise, µε)")
 
 
-def ensure_store(problem: Any, options: dict[str, Any], log_dir: str | Path | None) -> None:
+def ensure_store(problem: Problem, options: dict[str, Any], log_dir: str | Path | None) -> None:
     """Give a problem without a store one when ``options`` ask for parallel runs (``n_jobs`` !=
     1 or an ``executor``): ``<log_dir>/evaluations.sqlite``, else a new folder under ``runs/``;
     one log line says where."""
@@ -155,7 +158,7 @@ def ensure_store(problem: Any, options: dict[str, Any], log_dir: str | Path | No
                    "this run keeps its model runs in %s (give the Problem store=... to choose)", path)
 
 
-def check_model_output(problem: Any, method: str, seed: int, options: dict[str, Any]) -> None:
+def check_model_output(problem: Problem, method: str, seed: int, options: dict[str, Any]) -> None:
     """Run the model once, at the first point ``method`` would run, and refuse an output of the
     wrong shape or dtype. Nothing is run when the problem (or its store) holds a run already.
 
@@ -184,7 +187,7 @@ def check_model_output(problem: Any, method: str, seed: int, options: dict[str, 
                              f"`... x {len(problem.physical_names)}`")
 
 
-def validate(problem: Any, method: str, seed: int = 0, log_dir: str | Path | None = None,
+def validate(problem: Problem, method: str, seed: int = 0, log_dir: str | Path | None = None,
              options: dict[str, Any] | None = None) -> None:
     """Every check of this module but the model run (:func:`check_model_output`, the next
     step), in order: method, options, problem; then the store parallel runs need.

@@ -4,11 +4,15 @@
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from torchshm.inference.registry import Method, Options, check_walkers, refuse, register_method
+
+if TYPE_CHECKING:
+    from torchshm.inference.posterior import Posterior
+    from torchshm.problem import Problem
 
 
 def check(options: Options, dim: int) -> None:
@@ -20,13 +24,13 @@ def check(options: Options, dim: int) -> None:
                         "or raise n_steps")
 
 
-def first_point(problem: Any, seed: int, options: Options) -> np.ndarray:
+def first_point(problem: Problem, seed: int, options: Options) -> np.ndarray:
     """The first walker's start: the first of ``n_walkers`` prior draws."""
     n_walkers = int(options.get("n_walkers", 40))
     return problem.sample_prior(n_walkers, np.random.default_rng([seed, 3]))[0]
 
 
-def not_converged(post: Any) -> str:
+def not_converged(post: Posterior) -> str:
     """The chain is shorter than 50 autocorrelation times: raise ``n_steps``."""
     d = post.diagnostics
     n_over_tau, steps = float(d.get("n_over_tau", math.nan)), int(d.get("n_steps", 0))

@@ -3,11 +3,15 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from torchshm.inference.registry import Method, Options, check_walkers, refuse, register_method
+
+if TYPE_CHECKING:
+    from torchshm.inference.posterior import Posterior
+    from torchshm.problem import Problem
 
 
 def check(options: Options, dim: int) -> None:
@@ -33,7 +37,7 @@ def _n_initial(options: Options, n_phys: int) -> int:
     return int(options.get("n_initial") or batch * -(-(2 * n_phys + 1) // batch))
 
 
-def first_point(problem: Any, seed: int, options: Options) -> np.ndarray:
+def first_point(problem: Problem, seed: int, options: Options) -> np.ndarray:
     """The first point of the initial Latin hypercube in the plausible box."""
     from torchshm.inference.adaptive.acquisition import design
 
@@ -62,7 +66,7 @@ def charge(options: Options, dim: int, n_phys: int, checked: int) -> Options:
     return {**options, "max_model_evaluations": budget - checked} if budget > checked else options
 
 
-def not_converged(post: Any) -> str:
+def not_converged(post: Posterior) -> str:
     """The budget ran out before the stop rule held: raise ``max_model_evaluations``."""
     d = post.diagnostics
     rounds = d.get("rounds") or [{}]

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from torchshm.inference.registry import Method, Options, refuse, register_method
+
+if TYPE_CHECKING:
+    from torchshm.inference.posterior import Posterior
+    from torchshm.problem import Problem
 
 #: PyVBMC's display levels
 VBMC_DISPLAY = ("off", "iter", "full")
@@ -39,7 +43,7 @@ def check(options: Options, dim: int) -> None:
                        f"got shape {np.shape(points)}")
 
 
-def first_point(problem: Any, seed: int, options: Options) -> np.ndarray:
+def first_point(problem: Problem, seed: int, options: Options) -> np.ndarray:
     """The first given start point, else the first point of the start-up Latin design, else
     the plausible box's centre."""
     from torchshm.inference.start import StartSettings, latin_design, vbmc_budget
@@ -64,7 +68,7 @@ def charge(options: Options, dim: int, n_phys: int, checked: int) -> Options:
     return {**options, "max_fun_evals": budget} if budget >= 2 * n_initial else options
 
 
-def not_converged(post: Any) -> str:
+def not_converged(post: Posterior) -> str:
     """VBMC stopped before its stability test held: raise ``max_fun_evals``."""
     d = post.diagnostics
     evals = int(d.get("vbmc_func_count", post.n_model_evaluations)) + int(d.get("n_start_evaluations", 0))
