@@ -11,6 +11,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 #: the most lines of one library module
 MAX_LINES = 300
+#: the rows of docs/architecture.md ("Layers"), bottom = 0: a package imports its row or below
+ROWS = {"data": 0, "arrays": 0, "forward": 1, "kernels": 1, "priors": 1, "likelihood": 2,
+        "storage": 2, "config": 2, "problem": 3, "surrogate": 3, "inference": 4, "predictive": 5,
+        "casestudy": 6, "cli": 7, "__init__": 7}
+#: the one import that runs up a row (a command that serves a surrogate file), and why
+UPWARD = {("torchshm/forward/umbridge_server.py", "torchshm/surrogate/__init__.py")}
 #: packages of torchshm that sit above the library and may import the case study
 APPLICATIONS = ("casestudy", "cli")
 
@@ -110,3 +116,15 @@ def test_no_library_file_over_300_lines() -> None:
     long = {str(p.relative_to(ROOT)): n for p in sorted((ROOT / "torchshm").rglob("*.py"))
             if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
     assert long == {}
+
+
+def _package(path: Path) -> str:
+    parts = path.relative_to(ROOT / "torchshm").parts
+    return "__init__" if parts == ("__init__.py",) else parts[0].removesuffix(".py")
+
+
+def test_packages_import_only_their_row_or_below() -> None:
+    upward = {(str(path.relative_to(ROOT)), str(t.relative_to(ROOT)))
+              for path, targets in _graph("torchshm").items() for t in targets
+              if ROWS[_package(t)] > ROWS[_package(path)]}
+    assert upward == UPWARD
