@@ -9,7 +9,7 @@ parameters), kernel, data size, number of load cases and lines, and in the shape
 posterior (saturating stiffnesses, an unidentified parameter, a ridge, two modes), so that a
 method is judged on all of them at once and no single one can be tuned to.
 
-:func:`case_hash` is the fingerprint of a case's definition (and of the code that makes its
+The cases themselves are :data:`benchmarks.catalog.CASES`. :func:`case_hash` is the fingerprint of a case's definition (and of the code that makes its
 data); the reference posterior of a case (``benchmarks/references/<name>.json``) records it.
 """
 
@@ -139,5 +139,3 @@ def case_hash(case: Case) -> str:
     }, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
-
-from benchmarks.catalog import CASES  # noqa: E402  (the cases use the helpers above)

@@ -33,7 +33,8 @@ import torch  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.cases import CASES, case_hash, make_problem  # noqa: E402
+from benchmarks.cases import case_hash, make_problem  # noqa: E402
+from benchmarks.catalog import CASES  # noqa: E402
 from benchmarks.methods import TimedModel, run_method  # noqa: E402
 
 REFS = ROOT / "benchmarks" / "references"

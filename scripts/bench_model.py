@@ -14,8 +14,8 @@ from typing import Callable
 
 import torch
 
-from torchshm.physics import bridge705
-from torchshm.physics.bridge705 import _operators
+from torchshm.casestudy import bridge705
+from torchshm.casestudy.model import _operators
 
 
 def median_time(call: Callable[[], object], repeats: int) -> float:

@@ -15,7 +15,8 @@ from typing import Callable
 
 import torch
 
-from torchshm.surrogate import PRIOR_BOX, bridge705_surrogate, uniform_in_box
+from torchshm.casestudy import PRIOR_BOX, bridge705_surrogate
+from torchshm.surrogate import uniform_in_box
 
 
 def timed(action: Callable[[], object], repeats: int) -> list[float]:

@@ -1,8 +1,8 @@
-"""Generate the shipped synthetic campaign ``torchshm/data/bridge705_campaign.nc``.
+"""Generate the shipped synthetic campaign ``torchshm/casestudy/bridge705_campaign.nc``.
 
-Solves the truth structure of :mod:`torchshm.physics.truth` once (a few seconds) and writes its
+Solves the truth structure of :mod:`torchshm.casestudy.truth` once (a few seconds) and writes its
 noise-free, gauge-averaged strains with the truth parameters as metadata. The noise is added at
-load time by :func:`torchshm.data.campaign.synthetic_campaign`.
+load time by :func:`torchshm.casestudy.campaign.synthetic_campaign`.
 
 Usage: ``python scripts/make_campaign.py [--output PATH]``
 """
@@ -17,9 +17,9 @@ from pathlib import Path
 
 import torch
 
-from torchshm.data.campaign import CAMPAIGN_PATH, CampaignTruth, discrepancy_summary, write_campaign
-from torchshm.physics import bridge705
-from torchshm.physics.truth import TruthConfig, truth_strains
+from torchshm.casestudy.campaign import CAMPAIGN_PATH, CampaignTruth, discrepancy_summary, write_campaign
+from torchshm.casestudy import bridge705
+from torchshm.casestudy.truth import TruthConfig, truth_strains
 
 #: standard deviation of the independent measurement noise [µε] (paper, Sec. 3.4)
 SIGMA_E = 0.1

@@ -29,7 +29,8 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.cases import CASES, Case, case_hash, make_problem, truth_vector  # noqa: E402
+from benchmarks.cases import Case, case_hash, make_problem, truth_vector  # noqa: E402
+from benchmarks.catalog import CASES  # noqa: E402
 from benchmarks.reference import direct_log_joint, find_modes, importance, run_chain  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "references"

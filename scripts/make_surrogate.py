@@ -4,7 +4,7 @@
     python scripts/make_surrogate.py --compare       # also compare input/output transforms
 
 The finite element model is run on the paper's 7 x 16 design (through ``--store`` when given),
-the surrogate is fitted and written to ``torchshm/surrogate/bridge705_surrogate.pt``, and its
+the surrogate is fitted and written to ``torchshm/casestudy/bridge705_surrogate.pt``, and its
 errors are measured on held-out random parameters in the prior box and in the posterior
 region. The exit status is 1 when an acceptance limit is missed (the file is still written).
 """
@@ -19,10 +19,8 @@ from pathlib import Path
 import torch
 
 import torchshm
-from torchshm.surrogate import (
-    POSTERIOR_BOX, PRIOR_BOX, fit_surrogate, paper_design, shipped_path, surrogate_errors,
-    uniform_in_box,
-)
+from torchshm.casestudy.surrogate import POSTERIOR_BOX, PRIOR_BOX, paper_design, shipped_path
+from torchshm.surrogate import fit_surrogate, surrogate_errors, uniform_in_box
 
 #: acceptance limits: max error over a run's peak |strain| (prior box), max error [µε] (region)
 MAX_REL_RUN_PEAK, MAX_ABS_REGION = 0.01, 0.05

@@ -19,8 +19,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
-from torchshm.data.campaign import campaign_truth, discrepancy_summary, synthetic_campaign  # noqa: E402
-from torchshm.physics import Bridge705, bridge705  # noqa: E402
+from torchshm.casestudy.campaign import campaign_truth, discrepancy_summary, synthetic_campaign  # noqa: E402
+from torchshm.casestudy import Bridge705, bridge705  # noqa: E402
 
 
 def plot_load_cases(

@@ -99,7 +99,7 @@ def identify_with(settings: Config, measurements: Any, base: Path, log_dir: Path
     problem = build_problem(settings, build_model(settings, base), measurements, base,
                             build_priors(settings.priors))
     t0 = time.perf_counter()
-    post = torchshm.identify(problem, method=settings.method.name.value, seed=settings.seed,
+    post = torchshm.identify(problem, method=settings.method.name, seed=settings.seed,
                              log_dir=log_dir, **{**method_options(settings.method), **extra})
     return StudyARun(settings, post, time.perf_counter() - t0)
 

@@ -18,7 +18,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.cases import CASES, case_hash, make_problem, truth_vector  # noqa: E402
+from benchmarks.cases import case_hash, make_problem, truth_vector  # noqa: E402
+from benchmarks.catalog import CASES  # noqa: E402
 
 REFS = ROOT / "benchmarks" / "references"
 

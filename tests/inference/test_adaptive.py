@@ -152,6 +152,6 @@ def test_cli_config_selects_the_method() -> None:
         cfg = compose(CONFIG_NAME, overrides=["method=emulator", "method.batch_size=4"])
     settings = to_settings(cfg)
     options = method_options(settings.method)
-    assert settings.method.name.value == "emulator"
+    assert settings.method.name == "emulator"
     assert options["batch_size"] == 4 and options["tv_tol"] == 0.05
     assert "max_model_evaluations" not in options  # None: the method's default budget

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from torchshm.physics import Bridge705
+from torchshm.casestudy import Bridge705
 from torchshm.predictive.emulator import PLAIN, clean_design, fit_emulator, transform_options
 
 X = np.linspace(0.0, 10.0, 30)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from torchshm.casestudy import paper_priors
 from torchshm.data import Measurements
 
 PAPER_LOADS = (10.5, 16.9, 24.5, 32.2, 39.8, 47.5, 55.1, 62.8, 70.4, 78.1, 85.7, 99.9)
@@ -35,6 +36,11 @@ class LinearModel:
         e_c, k_r = theta_p[..., 0, None, None], theta_p[..., 1, None, None]
         out = self.a * (30.0 / e_c) + self.b * k_r
         return torch.where(e_c > self.nan_above, torch.nan, out)
+
+    @staticmethod
+    def default_priors() -> dict:
+        """The paper's priors: the model stands in for bridge 705 (``Problem(priors=None)``)."""
+        return paper_priors()
 
 
 def c1_positions() -> np.ndarray:

@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from torchshm import Measurements, Problem, bridge705, load_measurements
-from torchshm.data import synthetic_campaign, with_dropouts
+from torchshm.casestudy import synthetic_campaign
+from torchshm.data import with_dropouts
 
 pytestmark = pytest.mark.slow  # the top-face truth is one finite element solve (~10 s)
 

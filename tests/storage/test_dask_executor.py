@@ -20,7 +20,7 @@ import torchshm
 from torchshm import Measurements, Normal, Problem
 from torchshm.cli.models import with_executor
 from torchshm.config import CONF_DIR, CONFIG_NAME, register_configs, to_settings
-from torchshm.forward import ParallelModel
+from torchshm.storage import ParallelModel
 from torchshm.storage import EvaluationStore, dask_client, evaluate
 from torchshm.storage.dask_cluster import jobqueue_cluster
 

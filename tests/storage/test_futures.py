@@ -11,7 +11,8 @@ import pytest
 import torch
 from dask_models import Counted, calls
 
-from torchshm.forward import CoresPerRun, ParallelModel
+from torchshm.forward import CoresPerRun
+from torchshm.storage import ParallelModel
 from torchshm.forward.cores import available_cores, fit_workers, thread_limits
 from torchshm.storage import EvaluationStore, evaluate
 

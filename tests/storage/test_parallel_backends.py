@@ -34,7 +34,7 @@ def test_joblib_two_processes_equal_serial(tmp_path: Path) -> None:
 
 
 def test_a_parallel_model_through_a_store_keeps_its_workers(tmp_path: Path) -> None:
-    from torchshm.forward import ParallelModel
+    from torchshm.storage import ParallelModel
 
     theta, counter = grid(3, 2), str(tmp_path / "calls.txt")
     store = EvaluationStore(tmp_path / "s.sqlite")

@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 
 import torchshm
-import torchshm.surrogate
+from torchshm.casestudy import shipped_path
 
-SHIPPED = Path(torchshm.surrogate.__file__).parent / "bridge705_surrogate.pt"
+SHIPPED = shipped_path()
 
 
 def test_damaged_surrogate_files(tmp_path: Path) -> None:

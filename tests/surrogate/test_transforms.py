@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 import torch
 
-from torchshm.physics import Bridge705
+from torchshm.casestudy import Bridge705
 from torchshm.surrogate import ResponseTransform
 from torchshm.surrogate.transforms import PLAIN
 

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 from torchshm.config import Config, DataConfig, build_priors, method_options, parameter_labels
 from torchshm.cli import outputs
 from torchshm.cli.models import instantiate_model, runs_report, with_executor
-from torchshm.forward.parallel import ParallelModel
+from torchshm.storage.parallel import ParallelModel
 from torchshm.inference.method_checks import charge_check
 from torchshm.inference.validate import check_model_output, validate
 
@@ -205,7 +205,7 @@ def prepare_job(settings: Config, base: Path) -> PreparedJob:
     held_out = measurements.select(settings.predict.loads) if settings.predict.loads else None
     model = build_model(settings, base)
     problem = build_problem(settings, model, measurements, base, priors)
-    method, options = settings.method.name.value, method_options(settings.method)
+    method, options = settings.method.name, method_options(settings.method)
     validate(problem, method, settings.seed, None, options)  # one line naming the input, the fix
     check_model_output(problem, method, settings.seed, options)  # at most one model run
     n_checked = int(problem.n_model_evaluations)  # counted with the run's (run_job)
@@ -232,9 +232,9 @@ def _run(job: PreparedJob, out_dir: Path) -> JobResult:
     settings, problem = job.settings, job.problem
     out_dir.mkdir(parents=True, exist_ok=True)
     log.info("identifying %s with %s (%s kernel, %d load case(s), %d positions)",
-             problem.names, settings.method.name.value, settings.kernel.name.value,
+             problem.names, settings.method.name, settings.kernel.name.value,
              len(settings.data.loads), job.measurements.n)
-    method = settings.method.name.value
+    method = settings.method.name
     options = charge_check(method, method_options(settings.method), len(problem.names),
                            len(problem.physical_names), job.n_checked)  # within the budget
     post = torchshm.identify(problem, method=method, seed=settings.seed, log_dir=out_dir / "tb",

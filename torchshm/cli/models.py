@@ -60,13 +60,13 @@ def instantiate_model(spec: Mapping[str, Any], base: Path) -> ForwardModel:
 def with_executor(model: ForwardModel, executor: ExecutorConfig) -> ForwardModel:
     """``model`` itself for the serial executor (wrapped in
     :class:`~torchshm.forward.cores.CoresPerRun` with ``cores_per_run``), else a
-    :class:`~torchshm.forward.ParallelModel`.
+    :class:`~torchshm.storage.ParallelModel`.
 
     Raises:
         ValueError: for an unknown executor kind or parameter, or runs that do not fit the
             machine's cores (the message names it).
     """
-    from torchshm.forward import ParallelModel
+    from torchshm.storage import ParallelModel
     from torchshm.forward.cores import CoresPerRun, fit_workers
     from torchshm.storage import evaluation_options
 

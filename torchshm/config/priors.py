@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from dataclasses import fields
 
 from torchshm.config.schema import Distribution, PriorConfig
+from torchshm.priors import Gamma, Normal, Uniform
 
 #: the fields each family needs and may take (``fixed`` needs ``value`` and ignores the rest)
 _REQUIRED: dict[Distribution, tuple[str, ...]] = {
@@ -39,8 +40,6 @@ def build_prior(name: str, entry: PriorConfig) -> object:
         ValueError: ``priors.<name>: ...`` for a missing or superfluous field, a bound that is
             not a pair, inverted bounds or plausible bounds outside the hard ones.
     """
-    import torchshm
-
     dist = entry.dist
     if dist is Distribution.fixed:  # the other fields may be left from the prior it replaces
         if entry.value is None:
@@ -59,10 +58,10 @@ def build_prior(name: str, entry: PriorConfig) -> object:
     plausible = _pair(name, "plausible", entry.plausible)
     try:
         if dist is Distribution.uniform:
-            return torchshm.Uniform(entry.a, entry.b, plausible=plausible)
+            return Uniform(entry.a, entry.b, plausible=plausible)
         if dist is Distribution.gamma:
-            return torchshm.Gamma(entry.alpha, entry.beta, bounds=bounds, plausible=plausible)
-        return torchshm.Normal(entry.mean, entry.sd, bounds=bounds, plausible=plausible)
+            return Gamma(entry.alpha, entry.beta, bounds=bounds, plausible=plausible)
+        return Normal(entry.mean, entry.sd, bounds=bounds, plausible=plausible)
     except ValueError as err:
         raise ValueError(f"priors.{name}: {err}") from None
 

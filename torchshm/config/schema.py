@@ -44,14 +44,6 @@ class ModelName(Enum):
     surrogate = "surrogate"  # _target_: torchshm.bridge705_surrogate, its GP surrogate
 
 
-class MethodName(Enum):
-    """The inference methods of :func:`torchshm.identify`."""
-
-    vbmc = "vbmc"
-    emcee = "emcee"
-    emulator = "emulator"
-
-
 class Distribution(Enum):
     """Prior families; ``fixed`` pins the parameter to ``value`` (it is then not inferred)."""
 
@@ -102,16 +94,21 @@ class ExecutorConfig:
 
 @dataclass
 class MethodConfig:
-    """Base of the method schemas (group ``method/``); ``name`` selects the method."""
+    """Base of the method schemas (group ``method/``); ``name`` selects the method.
 
-    name: MethodName = MISSING
+    A method's schema is a subclass whose ``name`` defaults to the method's registered name
+    (:mod:`torchshm.inference.registry`) and whose other fields are its runner's options; it is
+    stored as ``method_schema_<name>`` for ``conf/method/<name>.yaml`` to extend.
+    """
+
+    name: str = MISSING
 
 
 @dataclass
 class VBMCConfig(MethodConfig):
     """Options of VBMC (PyVBMC); ``None`` keeps PyVBMC's default."""
 
-    name: MethodName = MethodName.vbmc
+    name: str = "vbmc"
     max_fun_evals: Optional[int] = None  # budget of log-joint (model) evaluations
     n_samples: int = 100_000  # samples drawn from the variational posterior
 
@@ -120,7 +117,7 @@ class VBMCConfig(MethodConfig):
 class EmceeConfig(MethodConfig):
     """Options of the affine-invariant ensemble sampler (emcee); the paper's A1 settings."""
 
-    name: MethodName = MethodName.emcee
+    name: str = "emcee"
     n_walkers: int = 40
     n_steps: int = 2000
     burn: Optional[int] = None  # steps discarded before the summaries; None = n_steps // 2
@@ -137,7 +134,7 @@ class EmulatorConfig(MethodConfig):
     The runs of a batch go where ``executor`` says (group ``executor/``), through ``store``.
     """
 
-    name: MethodName = MethodName.emulator
+    name: str = "emulator"
     batch_size: int = 5  # model runs per round, evaluated concurrently
     max_model_evaluations: Optional[int] = None  # cap on model runs; None = 50 (D + 2), PyVBMC's
     n_initial: Optional[int] = None  # initial design; None = a multiple of batch_size >= 2 P + 1
@@ -235,7 +232,6 @@ __all__ = [
     "KernelName",
     "LikelihoodConfig",
     "MethodConfig",
-    "MethodName",
     "ModelConfig",
     "ModelName",
     "PredictConfig",

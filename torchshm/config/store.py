@@ -22,7 +22,7 @@ from hydra.core.config_store import ConfigStore
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.core.override_parser.types import ChoiceSweep, OverrideType
 from hydra.errors import HydraException
-from omegaconf import OmegaConf
+from omegaconf import MISSING, OmegaConf
 
 from torchshm.config.schema import Config, KernelConfig, KernelName, MethodConfig, PriorConfig
 from torchshm.kernels import kernel_names
@@ -48,7 +48,7 @@ def register_configs() -> None:
     cs = ConfigStore.instance()
     cs.store(name="config_schema", node=Config)
     for schema in _method_schemas():
-        cs.store(name=f"method_schema_{schema.name.value}", node=schema)
+        cs.store(name=f"method_schema_{schema.name}", node=schema)
     for name in kernel_names():
         if name in KernelName.__members__:  # a kernel defined after the schema has no member
             cs.store(group="kernel", name=name, node=KernelConfig(name=KernelName[name]))
@@ -62,7 +62,7 @@ def _method_schemas() -> list[type[MethodConfig]]:
     while todo:
         schema = todo.pop(0)
         todo.extend(schema.__subclasses__())
-        if getattr(schema, "name", None) is not None and hasattr(schema.name, "value"):
+        if isinstance(getattr(schema, "name", None), str) and schema.name != MISSING:
             found.append(schema)
     return found
 

@@ -1,12 +1,13 @@
-"""Measurements and the shipped synthetic campaign of bridge 705."""
+"""Strain measurements: the container, its file formats, dropouts and anomaly flags."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from torchshm.data.measurements import Measurements, load_measurements
+from torchshm.data.loading import load_measurements
+from torchshm.data.measurements import Measurements
 
-__all__ = ["Measurements", "load_measurements", "synthetic_campaign", "flag_anomalies", "with_dropouts"]
+__all__ = ["Measurements", "load_measurements", "flag_anomalies", "with_dropouts"]
 
 
 def __getattr__(name: str) -> Any:
@@ -14,10 +15,6 @@ def __getattr__(name: str) -> Any:
         from torchshm.data.anomaly import flag_anomalies
 
         return flag_anomalies
-    if name == "synthetic_campaign":
-        from torchshm.data.campaign import synthetic_campaign
-
-        return synthetic_campaign
     if name == "with_dropouts":
         from torchshm.data.dropouts import with_dropouts
 

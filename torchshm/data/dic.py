@@ -29,6 +29,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from torchshm.data.dic_table import read_table
+from torchshm.data.formats import Format, register_format
 from torchshm.data.measurements import Measurements
 
 PRESETS: dict[str, dict[str, str | None]] = {
@@ -173,3 +174,16 @@ def _rows_of(xy: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 __all__ = ["PRESETS", "dic_files", "read_dic"]
+
+
+def _read(path: object, format: str | None, missing: str | None, **options: object) -> Measurements:
+    """:func:`read_dic`, refusing a field with lost subsets when ``missing="error"``."""
+    field = read_dic(path, **options)  # type: ignore[arg-type]
+    if missing == "error" and field.n_missing:
+        raise ValueError(f"load_measurements: {field.n_missing} lost or absent DIC subset(s); "
+                         "use missing='mask'")
+    return field
+
+
+#: image-correlation exports (never chosen by suffix)
+DIC = register_format(Format("dic", _read, options=True))

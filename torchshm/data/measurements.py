@@ -26,6 +26,7 @@ from typing import Iterable, Mapping
 import numpy as np
 
 from torchshm.data import lines as _lines
+from torchshm.data.formats import write_measurements
 from torchshm.data.positions import POSITION_TOL, nearest_index
 
 AttrValue = float | int | str
@@ -229,58 +230,10 @@ class Measurements:
         """Write to ``.csv`` (long format) or ``.nc`` (netCDF-4); returns the path.
 
         One fibre with no NaN and 1-D positions is written in the original layout; several lines,
-        coordinates, masked readings or per-line noise in the extended one (:mod:`~torchshm.data.tables`).
+        coordinates, masked readings or per-line noise in the extended one (:mod:`~torchshm.data.tables`);
+        the writer is the registered format of the suffix (:mod:`torchshm.data.formats`).
         """
-        from torchshm.data import io, tables
-
-        if self.line is None and self.x.ndim == 1 and self.missing == "error" and not isinstance(self.sigma_e, dict):
-            return io.save(self, Path(path))
-        return tables.save(self, Path(path))
-
-
-def load_measurements(
-    path: str | Path | Mapping[float, str | Path], format: str | None = None, *, missing: str | None = None,
-    **options: object,
-) -> Measurements:
-    """Read measurements from a ``.csv``, ``.nc``, Luna ODiSI ``.tsv`` or image-correlation file.
-
-    Args:
-        path: the file (for ``format="odisi"`` also a mapping load case -> file; for
-            ``format="dic"`` a mapping load case -> export, a list or a glob pattern of exports).
-        format: ``"csv"``, ``"netcdf"``, ``"odisi"`` or ``"dic"``; ``None`` picks it by suffix
-            (``.csv``, ``.nc``, ``.tsv``; a DIC export is never guessed).
-        missing: ``"error"`` or ``"mask"`` (NaN cells kept as dropouts); ``None`` means what the
-            file says (``# missing=mask``), else ``"error"``; a DIC field is always masked
-            (``"error"`` refuses one with a lost subset).
-        **options: for ``format="odisi"``, the options of :func:`torchshm.data.odisi.read_odisi`;
-            for ``format="dic"``, those of :func:`torchshm.data.dic.read_dic` (``loads``,
-            ``preset``, ``columns``, ``scale``, ...).
-
-    Raises:
-        FileNotFoundError: the file does not exist.
-        ValueError: naming the problem, for a malformed file or invalid values.
-    """
-    from torchshm.data import odisi, tables
-
-    format = None if format is None else str(format).lower()
-    if format is None and not isinstance(path, Mapping):
-        format = {".tsv": "odisi", ".nc": "netcdf", ".csv": "csv"}.get(Path(path).suffix.lower())
-    if format == "odisi":
-        return odisi.read_odisi(path, missing=missing or "error", **options)  # type: ignore[arg-type]
-    if format == "dic":
-        from torchshm.data.dic import read_dic
-
-        field = read_dic(path, **options)  # type: ignore[arg-type]
-        if missing == "error" and field.n_missing:
-            raise ValueError(f"load_measurements: {field.n_missing} lost or absent DIC subset(s); "
-                             "use missing='mask'")
-        return field
-    if options:
-        raise TypeError(f"load_measurements: options {sorted(options)} apply to format='odisi' only "
-                        "(format='dic' has its own)")
-    if isinstance(path, Mapping):
-        raise TypeError("load_measurements: one file per load case needs format='odisi' or 'dic'")
-    return tables.load(Path(path), format, missing)
+        return write_measurements(self, path)
 
 
 def _as_array(values: object, name: str, ndim: int | tuple[int, ...], allow_nan: bool = False) -> np.ndarray:

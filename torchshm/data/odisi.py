@@ -23,6 +23,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from torchshm.data.anomaly import anomaly_mask
+from torchshm.data.formats import Format, register_format
 from torchshm.data.measurements import Measurements
 
 
@@ -213,3 +214,11 @@ def _mean(block: np.ndarray) -> np.ndarray:
 
 
 __all__ = ["OdisiFile", "parse", "read_odisi"]
+
+
+def _read(path: object, format: str | None, missing: str | None, **options: object) -> Measurements:
+    return read_odisi(path, missing=missing or "error", **options)  # type: ignore[arg-type]
+
+
+#: Luna ODiSI ``.tsv`` exports
+ODISI = register_format(Format("odisi", _read, suffixes=(".tsv",), options=True))

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from torchshm.data import io
+from torchshm.data.formats import Format, register_format
 from torchshm.data.measurements import Measurements
 
 COLUMNS = ("line", "load", "x", "y", "z", "strain")
@@ -257,4 +258,20 @@ def _load_nc(path: Path, missing: str | None) -> Measurements:
                         line=line, missing=missing or meta.get("missing", "error"))
 
 
-__all__ = ["save", "load"]
+def write(m: Measurements, path: Path) -> Path:
+    """Write `m` to ``.csv`` or ``.nc``: one fibre with no NaN, 1-D positions and one noise
+    level in the original layout (:mod:`.io`), anything else in the extended one."""
+    if m.line is None and m.x.ndim == 1 and m.missing == "error" and not isinstance(m.sigma_e, dict):
+        return io.save(m, Path(path))
+    return save(m, Path(path))
+
+
+def _read(path: object, format: str | None, missing: str | None) -> Measurements:
+    return load(Path(path), format, missing)  # type: ignore[arg-type]
+
+
+#: CSV (long format) and netCDF, either layout
+CSV = register_format(Format("csv", _read, suffixes=(".csv",), write=write))
+NETCDF = register_format(Format("netcdf", _read, suffixes=(".nc",), write=write))
+
+__all__ = ["CSV", "NETCDF", "load", "save", "write"]

@@ -15,7 +15,6 @@ from torchshm.forward.calculix import CalculixStrain, read_frd
 from torchshm.forward.cores import CoresPerRun
 from torchshm.forward.external import ExternalModel, ExternalModelError
 from torchshm.forward.files import read_params, read_strains, write_strains
-from torchshm.forward.parallel import ParallelModel
 from torchshm.forward.protocol import ForwardModel, as_tensor, model_identity, output_shape
 from torchshm.forward.runs import KEEP_POLICIES, RunFolders
 from torchshm.forward.template import TemplateModel, placeholders
@@ -28,7 +27,6 @@ __all__ = [
     "ExternalModel",
     "ExternalModelError",
     "ForwardModel",
-    "ParallelModel",
     "RunFolders",
     "TemplateModel",
     "UMBridgeError",

@@ -4,7 +4,8 @@ Each run gets a fresh work folder ``<workdir>/run-0007-<hash>/`` holding ``param
 (input), ``run.log`` (the program's stdout and stderr) and the strain file the program writes
 (output); the file contract is in :mod:`torchshm.forward.files` and
 ``docs/external_models.md``. ``<workdir>/index.csv`` maps each run to its θp, status and
-folder, and by default only failed runs keep their folders (:mod:`torchshm.forward.runs`). A run that exits with a
+folder, and by default only failed runs keep their folders (:mod:`torchshm.forward.runs`); the run itself is
+:func:`torchshm.forward.program.run_program`. A run that exits with a
 non-zero status, exceeds its timeout or writes no valid strains raises
 :class:`ExternalModelError`, which the evaluation store records as a failed evaluation.
 """
@@ -14,33 +15,26 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import resource
 import signal
-import subprocess
 import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import torch
 from torch import Tensor
 
 from torchshm.forward.axes import load_axis
-from torchshm.forward import processes
 from torchshm.forward.files import LOG_FILE, PARAMS_FILE, read_strains, write_params
 from torchshm.forward.protocol import as_tensor
+from torchshm.forward.program import ExternalModelError, log_tail, run_program
 from torchshm.forward.runs import RunFolders
 
 
 #: default largest file a run may write [bytes] (strains of 100 load cases x 100,000 sensors
 #: as CSV take about 0.3 GiB)
 DEFAULT_MAX_OUTPUT_BYTES = 1 << 30
-
-
-class ExternalModelError(RuntimeError):
-    """An external program run failed: exit status, timeout or unusable output."""
 
 
 class ExternalModel:
@@ -211,30 +205,7 @@ class ExternalModel:
         """Run the command in ``folder``, output to run.log, and check how it ended."""
         env = dict(os.environ, TORCHSHM_PARAMS=str(folder / PARAMS_FILE),
                    TORCHSHM_OUTPUT=str(folder / self.output), TORCHSHM_WORKDIR=str(folder))
-        shell = isinstance(self.command, str)
-        with open(folder / LOG_FILE, "wb") as log:
-            try:
-                process = subprocess.Popen(
-                    self.command, cwd=folder, stdout=log, stderr=subprocess.STDOUT,
-                    stdin=subprocess.DEVNULL, shell=shell, env=env, start_new_session=True,
-                    # killed with its worker (torchshm.forward.processes)
-                    preexec_fn=processes.child_setup(_file_size_limit(self.max_output_bytes)),
-                )
-            except OSError as exc:
-                raise ExternalModelError(f"cannot start {self.command!r}: {exc}") from None
-            processes.track(process.pid)  # its group, stopped if the study dies
-            try:
-                status = process.wait(timeout=self.timeout)
-            except subprocess.TimeoutExpired:
-                _kill_group(process, self.kill_grace)
-                raise ExternalModelError(
-                    f"program timed out after {self.timeout:g} s and was killed "
-                    f"(work folder {folder})"
-                ) from None
-            finally:
-                if process.poll() is None:  # interrupted while waiting: leave no orphan run
-                    _kill_group(process, self.kill_grace)
-                processes.untrack(process.pid)
+        status = run_program(self.command, folder, env, self.timeout, self.kill_grace, self.max_output_bytes)
         if status != 0 and (status == -signal.SIGXFSZ or self._hit_size_limit(folder)):
             raise ExternalModelError(
                 f"program stopped for writing a file over max_output_bytes="
@@ -243,7 +214,7 @@ class ExternalModel:
         if status != 0:
             raise ExternalModelError(
                 f"program exited with status {status} (work folder {folder}); "
-                f"last output: {_tail(folder / LOG_FILE)!r}"
+                f"last output: {log_tail(folder / LOG_FILE)!r}"
             )
 
     def _default_identity(self) -> str:
@@ -252,17 +223,6 @@ class ExternalModel:
         digest.update(self.x.numpy().tobytes())
         digest.update(self.loads.numpy().tobytes())
         return f"ExternalModel-{digest.hexdigest()[:16]}"
-
-
-def _file_size_limit(limit: int | None) -> Any:
-    """A ``preexec_fn`` capping the size of any file the program writes at ``limit`` bytes."""
-    if limit is None:
-        return None
-
-    def apply() -> None:
-        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
-
-    return apply
 
 
 def _check_command(command: str | Sequence[str]) -> str | list[str]:
@@ -276,29 +236,3 @@ def _check_command(command: str | Sequence[str]) -> str | list[str]:
         raise ValueError(f"command must be a non-empty list of non-empty strings, got {command!r}")
     return args
 
-
-def _kill_group(process: subprocess.Popen, grace: float) -> None:
-    """SIGTERM the run's process group, SIGKILL it after ``grace`` seconds, reap the leader."""
-    _signal_group(process.pid, signal.SIGTERM)
-    try:
-        process.wait(timeout=grace)
-    except subprocess.TimeoutExpired:
-        pass
-    _signal_group(process.pid, signal.SIGKILL)  # also whatever the leader left behind
-    process.wait()
-
-
-def _signal_group(group: int, sig: signal.Signals) -> None:
-    try:
-        os.killpg(group, sig)
-    except (ProcessLookupError, PermissionError):
-        pass
-
-
-def _tail(path: Path, n_chars: int = 300) -> str:
-    """Last line(s) of a log file, at most ``n_chars`` characters."""
-    try:
-        text = path.read_bytes()[-n_chars:].decode(errors="replace").strip()
-    except OSError:
-        return ""
-    return " | ".join(line.strip() for line in text.splitlines() if line.strip())

@@ -22,6 +22,10 @@ class ForwardModel(Protocol):
         x: `n` sensor positions along the fibre [m], or `n x d` coordinates [m] of a field
             (e.g. image correlation), float64.
         loads: `L` load cases, identified by the truck's front-axle position [m], float64.
+
+    Optional attributes, read where present: ``names`` (the `P` parameter names), ``identity``
+    (:func:`model_identity`), ``line`` (`n` line labels), ``surrogate_transform`` and
+    ``default_priors()`` (name -> prior, used by ``Problem(priors=None)``).
     """
 
     x: Tensor

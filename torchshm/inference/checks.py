@@ -19,7 +19,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+import torchshm.inference.methods  # noqa: F401  (registers the built-in methods)
 from torchshm.inference.noise_check import noise_check
+from torchshm.inference.registry import find_method
 from torchshm.problem.parameters import statistical_base
 
 if TYPE_CHECKING:
@@ -60,36 +62,11 @@ def convergence_line(post: Posterior) -> str | None:
     """``"NOT CONVERGED: ..."`` with what the method reported and what to raise, or None."""
     if post.converged:
         return None
-    d = post.diagnostics
-    rerun = "rerun on the same store (finished model runs are reused)"
-    if post.method == "vbmc":
-        evals = int(d.get("vbmc_func_count", post.n_model_evaluations)) + int(
-            d.get("n_start_evaluations", 0))
-        reason = str(d.get("message", "")).strip().rstrip(".") or "no convergence"
-        return (f"NOT CONVERGED: VBMC stopped after {evals} evaluations before its stability "
-                f"test held ({reason}); the posterior and ELBO may be off: raise max_fun_evals "
-                f"(e.g. to {2 * int(evals)}) and {rerun}")
-    if post.method == "emcee":
-        n_over_tau, steps = float(d.get("n_over_tau", math.nan)), int(d.get("n_steps", 0))
-        if not math.isfinite(n_over_tau):
-            return (f"NOT CONVERGED: emcee's autocorrelation time could not be estimated from "
-                    f"{steps} steps (too short a chain): raise n_steps (e.g. to {4 * steps}); "
-                    "with backend_path the chain continues")
-        need = int(math.ceil(steps * 50.0 / max(n_over_tau, 1e-3) / 100.0) * 100)
-        return (f"NOT CONVERGED: emcee's chain after burn-in is {n_over_tau:.1f} "
-                f"autocorrelation times long (50 needed); the posterior may be off: raise "
-                f"n_steps (about {need}); with backend_path the chain continues")
-    if post.method == "emulator":
-        rounds = d.get("rounds") or [{}]
-        last = rounds[-1] if isinstance(rounds[-1], dict) else {}
-        tv = last.get("tv")
-        state = f"; last round TV {float(tv):.3f}" if isinstance(tv, (int, float)) else ""
-        return (f"NOT CONVERGED: method='emulator' used its budget ({post.n_model_evaluations} "
-                f"model runs, {d.get('n_rounds', len(rounds))} rounds{state}) before its stop "
-                f"rule held; the posterior may still move: raise max_model_evaluations and "
-                f"{rerun}")
+    method = find_method(post.method)
+    if method is not None and method.not_converged is not None:
+        return method.not_converged(post)
     return (f"NOT CONVERGED: method {post.method!r} reported no convergence: raise its budget "
-            f"and {rerun}")
+            f"and rerun on the same store (finished model runs are reused)")
 
 
 def run_lines(post: Posterior) -> list[str]:
@@ -98,7 +75,7 @@ def run_lines(post: Posterior) -> list[str]:
     failed = int(d.get("n_failed_evaluations", 0) or 0)
     if failed:
         out.append(f"FAILED RUNS: {failed} model runs failed and were "
-                   f"{'imputed the lowest log joint seen' if post.method == 'vbmc' else 'left out'}; "
+                   f"{_failed_runs(post.method)}; "
                    "see problem.failures() for their errors and fix the model or the bounds")
     stuck = int(d.get("n_stuck_walkers", 0) or 0)
     if stuck:
@@ -106,6 +83,12 @@ def run_lines(post: Posterior) -> list[str]:
                    "moved (diagnostics['stuck_walkers']); their samples bias the posterior: run "
                    "more steps or start the walkers elsewhere")
     return out
+
+
+def _failed_runs(name: str) -> str:
+    """What the method does with a failed run (its registration says)."""
+    method = find_method(name)
+    return "left out" if method is None else method.failed_runs
 
 
 def bound_shares(post: Posterior) -> dict[tuple[str, str], tuple[float, float]]:

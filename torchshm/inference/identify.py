@@ -1,4 +1,4 @@
-"""``torchshm.identify``: one entry point for VBMC and emcee."""
+"""``torchshm.identify``: one entry point for every registered method (:mod:`.registry`)."""
 
 from __future__ import annotations
 
@@ -25,8 +25,9 @@ def identify(
         problem: a :class:`~torchshm.Problem`.
         method: ``"emulator"`` (the default: an adaptive emulator of the model, refined in
             batches of concurrent model runs until its stop rule holds), ``"vbmc"`` (PyVBMC,
-            the paper's method) or ``"emcee"`` (the paper's benchmark: affine-invariant
-            ensemble MCMC).
+            the paper's method), ``"emcee"`` (the paper's benchmark: affine-invariant
+            ensemble MCMC) or any method registered since
+            (:func:`torchshm.inference.registry.register_method`).
         seed: seed of every random draw of the run.
         log_dir: TensorBoard folder written during the run (per VBMC iteration, or every
             ``log_every`` emcee steps), or None.

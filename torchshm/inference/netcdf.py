@@ -1,4 +1,4 @@
-"""A :class:`Posterior` as one netCDF file with InferenceData-style groups (xarray, h5netcdf).
+"""A :class:`~torchshm.inference.Posterior` as one netCDF file with InferenceData-style groups (xarray, h5netcdf).
 
 Groups:
 
@@ -10,9 +10,13 @@ Groups:
   coordinates: ``y(load, point)`` and ``x(point, axis)``).
 - ``history``: the per-iteration trace, one variable ``value`` with dims ``(row, column)``.
 - ``variational_posterior`` (VBMC): the mixture (``w``, ``mu``, ``sigma``, ``lambd``) and the
-  state of PyVBMC's parameter transformer, from which :func:`load_posterior` rebuilds a
+  state of PyVBMC's parameter transformer, from which
+  :func:`~torchshm.inference.netcdf_load.load_posterior` rebuilds a
   ``VariationalPosterior`` whose ``pdf`` and ``sample`` are those of the saved one. Only arrays
   and JSON are stored: no pickle, so loading a file runs no code from it.
+
+This module writes (its functions take any object with a posterior's attributes, so that
+:class:`~torchshm.inference.Posterior` can call them); :mod:`.netcdf_load` reads.
 """
 
 from __future__ import annotations
@@ -25,8 +29,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import xarray as xr
 
-from torchshm.inference.posterior import Posterior, as_chains
-from torchshm.inference.priors_json import priors_from_json, priors_to_json
+from torchshm.inference.priors_json import priors_to_json
+from torchshm.inference.summary import as_chains
 
 if TYPE_CHECKING:
     from pyvbmc import VariationalPosterior
@@ -35,12 +39,12 @@ ENGINE = "h5netcdf"
 FORMAT_VERSION = 1
 
 
-def _chains(post: Posterior, values: np.ndarray) -> np.ndarray:
+def _chains(post: Any, values: np.ndarray) -> np.ndarray:
     """Flat step-major values (`S x ...`) as (`chain x draw x ...`)."""
     return as_chains(values, post.n_chains)
 
 
-def _posterior_group(post: Posterior) -> xr.Dataset:
+def _posterior_group(post: Any) -> xr.Dataset:
     chains = _chains(post, post.samples)
     data = {name: (("chain", "draw"), chains[..., i]) for i, name in enumerate(post.names)}
     attrs = {
@@ -56,7 +60,7 @@ def _posterior_group(post: Posterior) -> xr.Dataset:
     return xr.Dataset(data, attrs=attrs)
 
 
-def _sample_stats_group(post: Posterior) -> xr.Dataset:
+def _sample_stats_group(post: Any) -> xr.Dataset:
     data = {
         k: (("chain", "draw"), _chains(post, np.asarray(v))) for k, v in post.sample_stats.items()
     }
@@ -65,7 +69,7 @@ def _sample_stats_group(post: Posterior) -> xr.Dataset:
     return xr.Dataset(data, attrs=attrs)
 
 
-def _observed_group(post: Posterior) -> xr.Dataset | None:
+def _observed_group(post: Any) -> xr.Dataset | None:
     meas = getattr(post.problem, "measurements", None)
     return None if meas is None else observed_dataset(meas)
 
@@ -90,7 +94,7 @@ def observed_dataset(meas: Any) -> xr.Dataset:
     return xr.Dataset(data, coords={"load": loads, "x": x}, attrs=attrs)
 
 
-def _history_group(post: Posterior) -> xr.Dataset:
+def _history_group(post: Any) -> xr.Dataset:
     keys = list(post.history)
     rows = len(next(iter(post.history.values()))) if keys else 0
     value = np.column_stack([post.history[k] for k in keys]) if keys else np.zeros((0, 0))
@@ -115,7 +119,7 @@ def _variational_group(vp: VariationalPosterior) -> xr.Dataset:
     return xr.Dataset(data, attrs={"transformer_other": json.dumps(other, default=str)})
 
 
-def save_posterior(post: Posterior, path: str | Path) -> Path:
+def save_posterior(post: Any, path: str | Path) -> Path:
     """Write ``post`` to ``path`` (replaced atomically if it exists); returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -136,90 +140,3 @@ def save_posterior(post: Posterior, path: str | Path) -> Path:
     os.replace(tmp, path)
     return path
 
-
-def _rebuild_variational(ds: xr.Dataset) -> Any:
-    """A PyVBMC ``VariationalPosterior`` from the ``variational_posterior`` group."""
-    from pyvbmc import VariationalPosterior
-    from pyvbmc.parameter_transformer import ParameterTransformer
-
-    state: dict[str, Any] = json.loads(ds.attrs["transformer_other"])
-    for name in ds.data_vars:
-        if str(name).startswith("transformer_"):
-            state[str(name)[len("transformer_"):]] = ds[name].values.copy()
-    transformer = ParameterTransformer.__new__(ParameterTransformer)
-    transformer.__setstate__(state)
-    mu = ds["mu"].values
-    vp = VariationalPosterior(D=mu.shape[0], K=mu.shape[1], parameter_transformer=transformer)
-    vp.w = ds["w"].values.reshape(1, -1).copy()
-    vp.eta = np.log(vp.w)
-    vp.mu = mu.copy()
-    vp.sigma = ds["sigma"].values.reshape(1, -1).copy()
-    vp.lambd = ds["lambd"].values.reshape(-1, 1).copy()
-    return vp
-
-
-def load_posterior(path: str | Path) -> Posterior:
-    """Read a posterior written by :meth:`Posterior.save` (``problem`` is None afterwards).
-
-    Raises:
-        FileNotFoundError: when ``path`` does not exist.
-        ValueError: when ``path`` is not a torchshm posterior file, or is truncated or
-            damaged (one line naming the file).
-    """
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no posterior file {path}")
-    try:
-        with xr.open_dataset(path, group="posterior", engine=ENGINE) as ds:
-            ds = ds.load()
-    except (OSError, ValueError, KeyError) as exc:  # h5py/h5netcdf: not HDF5, truncated, no group
-        first = next((line.strip() for line in str(exc).splitlines() if line.strip()), "")
-        raise ValueError(f"{path} is not a readable torchshm posterior file (truncated or "
-                         f"damaged?): {first or type(exc).__name__}") from None
-    if ds.attrs.get("format") != "torchshm-posterior":
-        raise ValueError(f"{path} is not a torchshm posterior file (no 'format' attribute)")
-    names = json.loads(ds.attrs["names"])
-    samples = np.stack([ds[n].values for n in names], axis=-1)  # chain x draw x D
-    n_chain = samples.shape[0]
-    groups = _open_groups(path)
-    hist = groups.get("history")
-    history = {} if hist is None else {
-        str(k): hist["value"].values[:, i] for i, k in enumerate(hist["column"].values)
-    }
-    stats = groups.get("sample_stats")
-    sample_stats = {} if stats is None else {
-        str(k): _flat(stats[k].values) for k in stats.data_vars
-    }
-    vp_ds = groups.get("variational_posterior")
-    ev, ev_sd = float(ds.attrs["log_evidence"]), float(ds.attrs["log_evidence_sd"])
-    return Posterior(
-        names=names, method=str(ds.attrs["method"]), samples=_flat(samples),
-        log_evidence=None if np.isnan(ev) else ev,
-        log_evidence_sd=None if np.isnan(ev_sd) else ev_sd,
-        n_model_evaluations=int(ds.attrs["n_model_evaluations"]),
-        converged=bool(int(ds.attrs["converged"])), diagnostics=json.loads(ds.attrs["diagnostics"]),
-        priors=priors_from_json(json.loads(ds.attrs["priors"])), history=history,
-        sample_stats=sample_stats,
-        variational=None if vp_ds is None else _rebuild_variational(vp_ds),
-        n_chains=n_chain, warnings=[str(w) for w in json.loads(ds.attrs.get("warnings", "[]"))],
-        problem=None,
-    )
-
-
-def _flat(values: np.ndarray) -> np.ndarray:
-    """(`chain x draw x ...`) values as flat step-major (`S x ...`): inverse of :func:`_chains`."""
-    return np.swapaxes(values, 0, 1).reshape(-1, *values.shape[2:])
-
-
-def _open_groups(path: Path) -> dict[str, xr.Dataset]:
-    """The optional groups present in the file, loaded into memory."""
-    import h5py
-
-    with h5py.File(path, "r") as fh:
-        present = set(fh.keys())
-    out = {}
-    for name in ("sample_stats", "history", "variational_posterior", "observed_data"):
-        if name in present:
-            with xr.open_dataset(path, group=name, engine=ENGINE) as ds:
-                out[name] = ds.load()
-    return out

@@ -35,6 +35,7 @@ from torchshm.likelihood.cholesky import cholesky_with_jitter
 from torchshm.likelihood.marginal import covariance
 
 if TYPE_CHECKING:
+    from torchshm.problem import Problem
     from torchshm.inference.posterior import Posterior
 
 #: posterior draws at which the residuals are whitened
@@ -90,7 +91,7 @@ def _off(ratio: float, tolerance: float) -> int:
     return -1 if ratio < 1.0 else 1
 
 
-def _draws_and_runs(post: Posterior, problem: Any) -> list[tuple[np.ndarray, np.ndarray, float]]:
+def _draws_and_runs(post: Posterior, problem: Problem) -> list[tuple[np.ndarray, np.ndarray, float]]:
     """Up to :data:`N_DRAWS` (draw `D`, outputs `L_model x n_model`, distance) triples."""
     try:
         theta_runs, outputs = problem.evaluations()
@@ -116,7 +117,7 @@ def _draws_and_runs(post: Posterior, problem: Any) -> list[tuple[np.ndarray, np.
     return out
 
 
-def _statistics(problem: Any, draw: np.ndarray, outputs: np.ndarray) -> tuple[float, ...]:
+def _statistics(problem: Problem, draw: np.ndarray, outputs: np.ndarray) -> tuple[float, ...]:
     """``(chi², n, sum of squared neighbour differences, their predicted sum, m, share of
     sigma_m² eta² in the white noise)`` of one draw's residuals over every block."""
     row = torch.as_tensor(draw, dtype=torch.float64)[None, :]
@@ -151,7 +152,7 @@ def _statistics(problem: Any, draw: np.ndarray, outputs: np.ndarray) -> tuple[fl
     return chi2, max(count, 1), diff, pred, m, mult / total if total > 0 else 0.0
 
 
-def _noise_levels(problem: Any, row: torch.Tensor) -> tuple[float, float]:
+def _noise_levels(problem: Problem, row: torch.Tensor) -> tuple[float, float]:
     """``(sigma_m, factor on every block's sigma_e)`` of one draw: inferred or fixed."""
     if hasattr(problem, "noise_of"):
         sigma_m, _, _, scale = problem.noise_of(row)
@@ -159,7 +160,7 @@ def _noise_levels(problem: Any, row: torch.Tensor) -> tuple[float, float]:
     return float(problem.sigma_m), 1.0
 
 
-def _line(problem: Any, direction: int, chi2: float, scatter: float, n: int, share: float,
+def _line(problem: Problem, direction: int, chi2: float, scatter: float, n: int, share: float,
           runs: int) -> str:
     """The ``NOISE MODEL`` warning: the noise model too large (``direction < 0``) or too small."""
     sigma_m, sigma_e = getattr(problem, "sigma_m", None), getattr(problem, "sigma_e", None)

@@ -2,7 +2,7 @@
 
 :func:`validate` is the first step of :func:`torchshm.identify` (and so of
 ``torchshm-identify``): the method's name, its options (names read from the method's runner
-and, for VBMC, PyVBMC's declared options; types and ranges), the problem's bounds and noise
+and the names the method passes through, e.g. PyVBMC's declared options; types and ranges), the problem's bounds and noise
 levels. Each refusal is one ``ValueError`` line naming the input and the fix. Where the fix is
 plain it is applied and said: parallel runs of a problem without a store get a store in the
 run's folder. Then at most one model run checks the output's shape and dtype: the first point
@@ -12,27 +12,27 @@ the method would run anyway, through the problem's cache or store, so it is not 
 from __future__ import annotations
 
 import difflib
-import importlib
 import inspect
 import logging
 import math
 import tempfile
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 import torch
 
+from torchshm.inference.method_checks import check_method_options, first_point
+from torchshm.inference.registry import get_method, method_names
+
+if TYPE_CHECKING:
+    from torchshm.problem import Problem
+
 logger = logging.getLogger(__name__)
 
-#: method name -> its runner, ``"module:function"``; the runner's keyword parameters are the
-#: method's options
-RUNNERS = {
-    "vbmc": "torchshm.inference.variational:run_vbmc",
-    "emcee": "torchshm.inference.mcmc:run_emcee",
-    "emulator": "torchshm.inference.adaptive.method:run_emulator",
-}
-METHODS = tuple(RUNNERS)
+#: the built-in method names (:func:`~torchshm.inference.registry.method_names` gives every
+#: registered one)
+METHODS = method_names()
 #: keyword parameters of every runner that are not method options
 _COMMON = ("problem", "seed", "log_dir")
 #: option -> (kind, minimum): "int" an integer >= minimum, "float" a number > minimum; None is
@@ -47,18 +47,13 @@ _RANGES: dict[str, tuple[str, float]] = {
 
 
 def runner(method: str) -> Callable[..., Any]:
-    """The function that runs ``method`` (see :data:`RUNNERS`)."""
-    check_method(method)
-    module, name = RUNNERS[method].split(":")
-    return getattr(importlib.import_module(module), name)
+    """The function that runs ``method`` (:mod:`torchshm.inference.registry`)."""
+    return get_method(method).run()
 
 
 def check_method(method: object) -> None:
-    """Refuse a method name that is not one of :data:`METHODS`."""
-    if method not in RUNNERS:
-        close = difflib.get_close_matches(str(method), METHODS, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise ValueError(f"identify: unknown method {method!r}{hint}; choose one of {METHODS}")
+    """Refuse a method name that is not registered, listing the registered ones."""
+    get_method(method)
 
 
 def method_options(method: str) -> tuple[dict[str, Any], set[str] | None]:
@@ -70,17 +65,8 @@ def method_options(method: str) -> tuple[dict[str, Any], set[str] | None]:
              if p.name not in _COMMON and p.kind is not inspect.Parameter.VAR_KEYWORD}
     if not any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params):
         return named, set()
-    return named, pyvbmc_option_names() if method == "vbmc" else None
-
-
-def pyvbmc_option_names() -> set[str] | None:
-    """Every option name PyVBMC declares (its basic and advanced ``.ini`` files), or None
-    when the installed PyVBMC does not say."""
-    try:
-        from pyvbmc.vbmc.options import declared_option_names
-    except ImportError:
-        return None
-    return {str(n) for n in declared_option_names()}
+    pass_through = get_method(method).pass_through
+    return named, None if pass_through is None else pass_through()
 
 
 def check_options(method: str, options: dict[str, Any], dim: int) -> None:
@@ -98,14 +84,12 @@ def check_options(method: str, options: dict[str, Any], dim: int) -> None:
         known = sorted(named) + sorted(extra)
         close = difflib.get_close_matches(key, known, n=1)
         hint = f"did you mean {close[0]!r}? " if close else ""
-        more = " and PyVBMC's options (pyvbmc.vbmc.options.declared_option_names())" if extra else ""
+        more = f" and {get_method(method).pass_through_doc}" if extra else ""
         raise ValueError(f"identify: method={method!r} has no option {key!r}; {hint}its options: "
                          f"{', '.join(sorted(named))}{more}")
     for key, value in options.items():
         if key in _RANGES and not (value is None and named.get(key, 0) is None):
             _check_range(method, key, value, *_RANGES[key])
-    from torchshm.inference.method_checks import check_method_options
-
     check_method_options(method, {**{k: v for k, v in named.items()
                                       if v is not inspect.Parameter.empty}, **options}, dim)
 
@@ -122,7 +106,7 @@ def _check_range(method: str, key: str, value: Any, kind: str, minimum: float) -
         raise ValueError(f"identify: method={method!r}: {key} (method.{key}) must be {want}, got {value!r}")
 
 
-def check_problem(problem: Any) -> None:
+def check_problem(problem: Problem) -> None:
     """Refuse bounds and noise levels no method can work with (one-sided bounds are left to
     the methods): NaN or inverted bounds, a plausible box that is not finite or not inside the
     hard bounds, negative or non-finite σm, σe, and σm = σe = 0 with σa allowed to reach 0."""
@@ -156,7 +140,7 @@ def check_problem(problem: Any) -> None:
                              "of Eq. (21) is then singular; give sigma_e > 0 (the sensor noise, µε)")
 
 
-def ensure_store(problem: Any, options: dict[str, Any], log_dir: str | Path | None) -> None:
+def ensure_store(problem: Problem, options: dict[str, Any], log_dir: str | Path | None) -> None:
     """Give a problem without a store one when ``options`` ask for parallel runs (``n_jobs`` !=
     1 or an ``executor``): ``<log_dir>/evaluations.sqlite``, else a new folder under ``runs/``;
     one log line says where."""
@@ -174,7 +158,7 @@ def ensure_store(problem: Any, options: dict[str, Any], log_dir: str | Path | No
                    "this run keeps its model runs in %s (give the Problem store=... to choose)", path)
 
 
-def check_model_output(problem: Any, method: str, seed: int, options: dict[str, Any]) -> None:
+def check_model_output(problem: Problem, method: str, seed: int, options: dict[str, Any]) -> None:
     """Run the model once, at the first point ``method`` would run, and refuse an output of the
     wrong shape or dtype. Nothing is run when the problem (or its store) holds a run already.
 
@@ -182,10 +166,9 @@ def check_model_output(problem: Any, method: str, seed: int, options: dict[str, 
         ValueError: naming the output's shape or dtype and the one expected.
     """
     theta_p, _ = problem.evaluations()
-    if len(theta_p) or (method == "emulator" and options.get("max_model_evaluations") == 0):
+    runs_none = get_method(method).runs_none
+    if len(theta_p) or (runs_none is not None and runs_none(options)):
         return  # a run is known already, or the method may run none
-    from torchshm.inference.method_checks import first_point
-
     point = torch.as_tensor(first_point(problem, method, seed, options), dtype=torch.float64)
     theta = problem.split.physical(point[None])
     out = problem.model_outputs(theta)
@@ -204,14 +187,14 @@ def check_model_output(problem: Any, method: str, seed: int, options: dict[str, 
                              f"`... x {len(problem.physical_names)}`")
 
 
-def validate(problem: Any, method: str, seed: int = 0, log_dir: str | Path | None = None,
+def validate(problem: Problem, method: str, seed: int = 0, log_dir: str | Path | None = None,
              options: dict[str, Any] | None = None) -> None:
     """Every check of this module but the model run (:func:`check_model_output`, the next
     step), in order: method, options, problem; then the store parallel runs need.
 
     Args:
         problem: the :class:`~torchshm.Problem`.
-        method: the method's name (:data:`METHODS`).
+        method: the method's name (a registered one, :func:`~torchshm.inference.registry.method_names`).
         seed: the run's seed.
         log_dir: the run's folder (TensorBoard), or None.
         options: the method's keyword options.

@@ -4,6 +4,5 @@ from __future__ import annotations
 
 from torchshm.priors.base import PLAUSIBLE_QUANTILES, Prior
 from torchshm.priors.distributions import Gamma, Normal, Uniform
-from torchshm.priors.paper import paper_priors
 
-__all__ = ["PLAUSIBLE_QUANTILES", "Gamma", "Normal", "Prior", "Uniform", "paper_priors"]
+__all__ = ["PLAUSIBLE_QUANTILES", "Gamma", "Normal", "Prior", "Uniform"]

@@ -21,9 +21,10 @@ from torchshm.data.positions import match_positions
 from torchshm.kernels import Kernel, get_kernel
 from torchshm.arrays import as_float64, as_numpy
 from torchshm.likelihood.blocks import blocks_log_likelihood, make_blocks
-from torchshm.priors import Prior, paper_priors
+from torchshm.priors import Prior
 from torchshm.problem.matching import match_measured
-from torchshm.problem.parameters import NOISE, ParameterSplit, read_priors
+from torchshm.problem.noise import NoiseLevels, default_priors
+from torchshm.problem.parameters import ParameterSplit, read_priors
 from torchshm.problem.prior import JointPrior
 from torchshm.storage.cached_model import CachedModel
 
@@ -46,10 +47,11 @@ class Problem:
             readings are left out of their own load case's block.
         kernel: discrepancy kernel name (:data:`torchshm.kernels.KERNELS`) or instance.
         priors: name -> :class:`~torchshm.priors.Prior` or a number (fixes the parameter);
-            ``None`` means :func:`~torchshm.priors.paper_priors`. Entries other than ``sigma_a``
-            and ``length`` are the physical parameters, passed to the model in this order (in
-            ``model.names`` order when the model declares names). A ``length`` entry is dropped
-            for a kernel without length.
+            ``None`` means the model's own, ``model.default_priors()`` (bridge 705's model and
+            shipped surrogate give the paper's); a model without them needs priors. Entries
+            other than ``sigma_a`` and ``length`` are the physical parameters, passed to the
+            model in this order (in ``model.names`` order when the model declares names). A
+            ``length`` entry is dropped for a kernel without length.
         sigma_m: standard deviation of the multiplicative model error, >= 0; or a prior (e.g.
             ``Uniform(0, 0.2)``), which makes ``sigma_m`` an inferred parameter (after the
             discrepancy's) so the data decide how much of the misfit scales with the strains.
@@ -99,25 +101,13 @@ class Problem:
         if discrepancy not in ("shared", "per_line"):
             raise ValueError(f"Problem: discrepancy must be 'shared' or 'per_line', got {discrepancy!r}")
         self.kernel = get_kernel(kernel)
-        given = dict(paper_priors() if priors is None else priors)
-        noise_priors = {n: given.pop(n) for n in NOISE if n in given}
-        if hasattr(sigma_m, "log_prob"):
-            noise_priors["sigma_m"] = sigma_m
-        if hasattr(sigma_e, "log_prob"):
-            noise_priors["sigma_e"] = sigma_e
-        self.sigma_m = sigma_m if "sigma_m" not in noise_priors else noise_priors["sigma_m"]
-        if not hasattr(self.sigma_m, "log_prob"):
-            self.sigma_m = _scale("sigma_m", self.sigma_m)
+        given = dict(default_priors(model) if priors is None else priors)
         lines = list(measurements.line_slices()) if hasattr(measurements, "line_slices") else [None]
-        if "sigma_e" in noise_priors and hasattr(noise_priors["sigma_e"], "log_prob"):
-            self.sigma_e, base = noise_priors["sigma_e"], 1.0  # blocks scaled by the inferred σe
-        else:
-            fixed_e = noise_priors.get("sigma_e", sigma_e)
-            self.sigma_e = base = _noise(measurements, lines, fixed_e)
+        noise = NoiseLevels.read(given, sigma_m, sigma_e, measurements, lines)  # takes the noise entries
+        self.sigma_m, self.sigma_e, base = noise.sigma_m, noise.sigma_e, noise.base
         groups = lines if discrepancy == "per_line" and lines != [None] else []
         self.priors, self.physical_names = read_priors(given, self.kernel, getattr(model, "names", None), groups)
-        for name, prior in noise_priors.items():
-            self.priors[name] = _noise_prior(name, prior)
+        self.priors.update(noise.priors)
         self.split = ParameterSplit.from_priors(
             self.priors, self.physical_names, self.kernel.has_length, groups
         )
@@ -299,34 +289,6 @@ class Problem:
 
 def _nan_to_neg_inf(value: Tensor) -> Tensor:
     return torch.where(torch.isnan(value), -torch.inf, value)
-
-
-def _noise(measurements: Any, lines: list, sigma_e: float | None) -> float | dict:
-    """The noise level [µε]: one number, or line label -> number when the data give one per line."""
-    if sigma_e is not None:
-        return _scale("sigma_e", sigma_e)
-    given = measurements.sigma_e
-    if isinstance(given, Mapping):
-        return {label: _scale(f"sigma_e of line {label!r}", given[label]) for label in lines}
-    return _scale("sigma_e", given)
-
-
-def _noise_prior(name: str, prior: object) -> object:
-    """A noise level's prior, checked: a prior (``log_prob``) with hard bounds within [0, inf)."""
-    if not hasattr(prior, "log_prob"):
-        return _scale(name, prior)
-    lo = getattr(prior, "hard_bounds", (0.0, math.inf))[0]
-    if lo < 0:
-        raise ValueError(f"Problem: the prior of {name} {prior!r} allows negative values (hard "
-                         f"bounds {tuple(prior.hard_bounds)}); give bounds with a lower bound >= 0")
-    return prior
-
-
-def _scale(name: str, value: object) -> float:
-    value = float(value)  # type: ignore[arg-type]
-    if not math.isfinite(value) or value < 0:
-        raise ValueError(f"Problem: {name} must be finite and >= 0, got {value}")
-    return value
 
 
 def _result(value: Tensor, shape: tuple[int, ...], is_torch: bool) -> Tensor | np.ndarray:

@@ -15,6 +15,7 @@ from torchshm.storage.evaluate import EvaluationResult, evaluate
 from torchshm.storage.dask_cluster import close_client, dask_client
 from torchshm.storage.executors import evaluation_options, make_executor
 from torchshm.storage.keys import canonical_theta, theta_key
+from torchshm.storage.parallel import ParallelModel
 from torchshm.storage.record import Record
 from torchshm.storage.store import EvaluationStore
 
@@ -29,6 +30,7 @@ __all__ = [
     "evaluate",
     "evaluation_options",
     "MemoryBackend",
+    "ParallelModel",
     "StoreBackend",
     "open_backend",
     "make_executor",

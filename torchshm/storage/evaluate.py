@@ -17,7 +17,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from torchshm.forward.cores import CoresPerRun, fit_workers
-from torchshm.forward.parallel import ParallelModel
 from torchshm.forward.protocol import model_identity, output_shape
 from torchshm.storage import futures, runners
 from torchshm.storage.interrupt import resumable
@@ -95,7 +94,7 @@ def evaluate(
     Args:
         model: a forward model (see :class:`torchshm.forward.ForwardModel`); it must be
             picklable when ``n_jobs != 1`` or ``executor`` is given. A
-            :class:`~torchshm.forward.ParallelModel` is unwrapped: its model runs with its
+            :class:`~torchshm.storage.ParallelModel` is unwrapped: its model runs with its
             ``n_jobs``, ``executor`` and ``cores_per_run``.
         theta_p: parameters `N x P` or `P`, in the model's units.
         store: an :class:`EvaluationStore` or a path to one; None keeps nothing.
@@ -122,8 +121,9 @@ def evaluate(
         KeyboardInterrupt, SystemExit: on Ctrl-C or SIGTERM, after one line on stderr (see
             :func:`torchshm.storage.interrupt.resumable`); every finished run stays stored.
     """
-    if isinstance(model, ParallelModel) and n_jobs == 1 and executor is None:
-        model, n_jobs, executor = model.model, model.n_jobs, model.executor  # its parallelism
+    plan = getattr(model, "parallel_plan", None)  # a ParallelModel: its model and parallelism
+    if plan is not None and n_jobs == 1 and executor is None:
+        model, n_jobs, executor = plan
     theta = canonical_theta(theta_p)
     identity, shape = model_identity(model), output_shape(model)
     if isinstance(n_jobs, bool) or not isinstance(n_jobs, numbers.Integral) or n_jobs == 0:

@@ -70,7 +70,7 @@ def evaluation_options(
     cores_env: Sequence[str] = (),
 ) -> dict[str, Any]:
     """Keyword arguments ``n_jobs``, ``executor``, ``cores_per_run`` and ``cores_env`` for
-    :func:`evaluate` (and :class:`~torchshm.forward.ParallelModel`) from plain settings.
+    :func:`evaluate` (and :class:`~torchshm.storage.ParallelModel`) from plain settings.
 
     Args:
         kind: ``"serial"`` (in this process), ``"joblib"`` (``n_jobs`` local processes),

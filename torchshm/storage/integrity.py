@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from torchshm.storage import spool
+from torchshm.storage.rows import COLUMNS, row_record
 
 
 @dataclass
@@ -82,8 +83,6 @@ def check_store(path: str | Path) -> IntegrityReport:
     Raises:
         FileNotFoundError: if ``path`` does not exist.
     """
-    from torchshm.storage.store import _COLUMNS, _row_record
-
     path = Path(path).expanduser().resolve()
     if not path.is_file():
         raise FileNotFoundError(f"no evaluation store at {path}")
@@ -92,9 +91,9 @@ def check_store(path: str | Path) -> IntegrityReport:
         con = sqlite3.connect(path, timeout=120.0, isolation_level=None)
         try:
             report.sqlite = [str(r[0]) for r in con.execute("PRAGMA integrity_check")]
-            for row in con.execute(f"SELECT {_COLUMNS} FROM evaluations"):
+            for row in con.execute(f"SELECT {COLUMNS} FROM evaluations"):
                 report.n_rows += 1
-                record = _row_record(row)
+                record = row_record(row)
                 if record is None:
                     report.bad_rows.append((str(row[0]), str(row[1])))
                 elif record.ok:

@@ -35,48 +35,18 @@ import sqlite3
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from torchshm.forward.protocol import model_identity, output_shape
 from torchshm.storage import spool
+from torchshm.storage.integrity import IntegrityReport, check_store
 from torchshm.storage.keys import key_theta
-from torchshm.storage.record import Record, record_checksum
+from torchshm.storage.record import Record
+from torchshm.storage.rows import COLUMNS, SCHEMA, SCHEMA_VERSION, UPSERT, row_record
 
-if TYPE_CHECKING:
-    from torchshm.storage.integrity import IntegrityReport
 
 logger = logging.getLogger(__name__)
-
-SCHEMA_VERSION = "1"
-_COLUMNS = (
-    "model, theta_key, status, outputs, n_loads, n_points, checksum, error, wall_time_s, "
-    "finished_at, host, pid, traceback"
-)
-_SCHEMA = f"""
-CREATE TABLE IF NOT EXISTS evaluations (
-    model TEXT NOT NULL, theta_key TEXT NOT NULL,
-    status TEXT NOT NULL CHECK (status IN ('ok', 'failed')),
-    outputs BLOB, n_loads INTEGER, n_points INTEGER, checksum TEXT NOT NULL,
-    error TEXT, wall_time_s REAL, finished_at TEXT, host TEXT, pid INTEGER, traceback TEXT,
-    PRIMARY KEY (model, theta_key));
-CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);
-CREATE TABLE IF NOT EXISTS claims (
-    model TEXT NOT NULL, theta_key TEXT NOT NULL, host TEXT NOT NULL, pid INTEGER NOT NULL,
-    started TEXT NOT NULL, claimed_at REAL NOT NULL, PRIMARY KEY (model, theta_key));
-INSERT OR IGNORE INTO meta VALUES ('schema_version', '{SCHEMA_VERSION}');
-"""
-# An ok evaluation is never overwritten; a failed one is replaced by any newer result.
-_UPSERT = f"""
-INSERT INTO evaluations ({_COLUMNS}) VALUES ({", ".join("?" * 13)})
-ON CONFLICT (model, theta_key) DO UPDATE SET
-    status = excluded.status, outputs = excluded.outputs, n_loads = excluded.n_loads,
-    n_points = excluded.n_points, checksum = excluded.checksum, error = excluded.error,
-    wall_time_s = excluded.wall_time_s, finished_at = excluded.finished_at,
-    host = excluded.host, pid = excluded.pid, traceback = excluded.traceback
-WHERE evaluations.status <> 'ok'
-"""
 
 
 class EvaluationStore:
@@ -125,7 +95,7 @@ class EvaluationStore:
                     mode = con.execute("PRAGMA journal_mode = WAL").fetchone()[0]
                     if str(mode).lower() != "wal":
                         logger.warning("%s: WAL not available, using journal mode %s", self, mode)
-                    con.executescript(f"BEGIN IMMEDIATE; {_SCHEMA} COMMIT;")
+                    con.executescript(f"BEGIN IMMEDIATE; {SCHEMA} COMMIT;")
                     version = con.execute(
                         "SELECT value FROM meta WHERE name = 'schema_version'"
                     ).fetchone()[0]
@@ -161,7 +131,7 @@ class EvaluationStore:
         )
         with self._connect() as con:
             con.execute("BEGIN IMMEDIATE")
-            written = con.execute(_UPSERT, row).rowcount
+            written = con.execute(UPSERT, row).rowcount
             con.execute("COMMIT")
         return written > 0
 
@@ -208,11 +178,11 @@ class EvaluationStore:
             for start in range(0, len(keys), 500):
                 chunk = list(keys[start : start + 500])
                 query = (
-                    f"SELECT {_COLUMNS} FROM evaluations WHERE model = ? "
+                    f"SELECT {COLUMNS} FROM evaluations WHERE model = ? "
                     f"AND theta_key IN ({', '.join('?' * len(chunk))})"
                 )
                 for row in con.execute(query, [identity, *chunk]).fetchall():
-                    record = _row_record(row)
+                    record = row_record(row)
                     if record is None:
                         self._drop_corrupt(con, row)
                     else:
@@ -222,13 +192,13 @@ class EvaluationStore:
     def records(self, model: object, status: str | None = None) -> list[Record]:
         """Every valid stored evaluation of a model, oldest first, optionally by status."""
         self.ingest()
-        query = f"SELECT {_COLUMNS} FROM evaluations WHERE model = ?"
+        query = f"SELECT {COLUMNS} FROM evaluations WHERE model = ?"
         params: list[object] = [_identity(model)]
         if status is not None:
             query, params = query + " AND status = ?", [*params, status]
         with self._connect() as con:
             rows = con.execute(query + " ORDER BY rowid", params).fetchall()
-        records = [_row_record(row) for row in rows]
+        records = [row_record(row) for row in rows]
         if None in records:
             logger.warning("%s: %d corrupt evaluations skipped", self, records.count(None))
         return [record for record in records if record is not None]
@@ -276,8 +246,6 @@ class EvaluationStore:
     def check(self) -> IntegrityReport:
         """Integrity check of the file, every row's checksum and the spool (read only); see
         :func:`torchshm.storage.integrity.check_store`."""
-        from torchshm.storage.integrity import check_store
-
         return check_store(self.path)
 
     def deposit(self, record: Record) -> Path:
@@ -311,21 +279,3 @@ class EvaluationStore:
 def _identity(model: object) -> str:
     return model if isinstance(model, str) else model_identity(model)
 
-
-def _row_record(row: tuple) -> Record | None:
-    """Record of a database row, or None when its checksum shows it is damaged."""
-    model, key, status, blob, n_loads, n_points, checksum, error = row[:8]
-    outputs = None
-    if blob is not None:
-        if n_loads is None or n_points is None or len(blob) != 8 * n_loads * n_points:
-            return None
-        outputs = np.frombuffer(blob, dtype="<f8").reshape(n_loads, n_points).astype(np.float64)
-    if (status == "ok") == (outputs is None):
-        return None
-    if record_checksum(model, key, status, outputs, error) != checksum:
-        return None
-    return Record(
-        model=model, key=key, status=status, outputs=outputs, error=error,
-        wall_time=float("nan") if row[8] is None else float(row[8]),  # SQLite stores NaN as NULL
-        finished_at=row[9], host=row[10], pid=row[11], traceback=row[12],
-    )

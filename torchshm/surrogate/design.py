@@ -1,6 +1,6 @@
 """Designs of physical parameters at which a forward model is run to train a surrogate.
 
-(Bridge 705's own grid, the paper's, is :func:`torchshm.physics.surrogate.paper_design`.)
+(Bridge 705's own grid, the paper's, is :func:`torchshm.casestudy.surrogate.paper_design`.)
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Accuracy of a surrogate against the forward model it replaces, at held-out parameters.
 
 The parameter box is the caller's (e.g. from the priors' plausible or hard bounds, or bridge
-705's :data:`torchshm.physics.surrogate.PRIOR_BOX`).
+705's :data:`torchshm.casestudy.surrogate.PRIOR_BOX`).
 """
 
 from __future__ import annotations

@@ -8,7 +8,8 @@ import torch
 
 from torchshm.cli.models import with_executor
 from torchshm.config import ExecutorConfig
-from torchshm.forward import ParallelModel, model_identity
+from torchshm.forward import model_identity
+from torchshm.storage import ParallelModel
 
 
 class Linear:

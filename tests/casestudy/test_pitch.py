@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import torch
 
-from torchshm.physics import bridge705
-from torchshm.physics.frame import bottom_strain, solve
-from torchshm.physics.truth import TruthConfig, gauge_average, gauge_weights, spread_loads, truth_mesh
+from torchshm.casestudy import bridge705
+from torchshm.casestudy.frame import bottom_strain, solve
+from torchshm.casestudy.truth import TruthConfig, gauge_average, gauge_weights, spread_loads, truth_mesh
 
 
 def test_default_pitch_is_the_unchanged_model() -> None:

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import torch
 
-from torchshm.physics import Bridge705Config, T1, T1_POSITIONS, Truck, bridge705
-from torchshm.physics.bridge705 import bridge_mesh, load_matrix
-from torchshm.physics.truck import GRAVITY
+from torchshm.casestudy import Bridge705Config, T1, T1_POSITIONS, Truck, bridge705
+from torchshm.casestudy.model import bridge_mesh, load_matrix
+from torchshm.casestudy.truck import GRAVITY
 
 
 def test_t1_mass_positions_and_direction() -> None:

@@ -14,7 +14,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from torchshm.physics.truck import T1, T1_POSITIONS, Truck
+from torchshm.casestudy.truck import T1, T1_POSITIONS, Truck
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ from pathlib import Path
 import torch
 from torch import Tensor
 
+from torchshm.casestudy.priors import paper_priors
 from torchshm.surrogate.design import grid_design
 from torchshm.surrogate.surrogate import Surrogate, load_surrogate
 
@@ -26,7 +27,7 @@ PAPER_LOG10_K_R: tuple[float, float, int] = (0.0, 12.0, 16)
 PRIOR_BOX: tuple[tuple[float, float], ...] = ((10.0, 100.0), (0.0, 12.0))
 #: the posterior region of the paper's case study, where the strictest accuracy is asked
 POSTERIOR_BOX: tuple[tuple[float, float], ...] = ((25.0, 45.0), (10.5, 12.0))
-#: file name of the shipped surrogate, inside the ``torchshm.surrogate`` package
+#: file name of the shipped surrogate, inside the ``torchshm.casestudy`` package
 SHIPPED_FILE = "bridge705_surrogate.pt"
 
 
@@ -46,7 +47,7 @@ def paper_design() -> Tensor:
 
 def shipped_path() -> Path:
     """Path of the shipped surrogate file."""
-    return Path(str(resources.files("torchshm.surrogate").joinpath(SHIPPED_FILE)))
+    return Path(str(resources.files("torchshm.casestudy").joinpath(SHIPPED_FILE)))
 
 
 def bridge705_surrogate() -> Surrogate:
@@ -55,7 +56,8 @@ def bridge705_surrogate() -> Surrogate:
     Trained on :func:`paper_design` (112 finite element runs); predicts strains [µε]
     `... x 12 x n` for θp `... x 2` = (E_c [GPa], log10_K_r). Loading takes a few tens of
     milliseconds and does not build the finite element model; its ``model_identity`` is the
-    identity of the model it was trained on.
+    identity of the model it was trained on. A :class:`~torchshm.Problem` given no priors uses
+    the paper's (its ``default_priors``, as the model's).
 
     Raises:
         FileNotFoundError: if the shipped file is missing (regenerate it with
@@ -64,4 +66,6 @@ def bridge705_surrogate() -> Surrogate:
     path = shipped_path()
     if not path.is_file():
         raise FileNotFoundError(f"{path} is missing; run python scripts/make_surrogate.py")
-    return load_surrogate(path)
+    surrogate = load_surrogate(path)
+    surrogate.default_priors = paper_priors  # type: ignore[attr-defined]
+    return surrogate

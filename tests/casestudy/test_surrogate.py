@@ -11,7 +11,7 @@ import pytest
 import torch
 
 import torchshm
-from torchshm.physics.surrogate import (
+from torchshm.casestudy.surrogate import (
     POSTERIOR_BOX, PRIOR_BOX, bridge705_surrogate, paper_design,
 )
 from torchshm.surrogate import Surrogate, surrogate_errors, uniform_in_box
@@ -77,8 +77,10 @@ def test_paper_design_is_the_7_by_16_grid() -> None:
     assert design.unique(dim=0).shape[0] == 112
 
 
-def test_surrogate_package_still_offers_the_bridge_names() -> None:
+def test_the_bridge_names_belong_to_the_case_study() -> None:
+    import torchshm.casestudy as case
     import torchshm.surrogate as generic
 
-    assert generic.paper_design is paper_design and generic.PRIOR_BOX == PRIOR_BOX
+    assert case.paper_design is paper_design and case.PRIOR_BOX == PRIOR_BOX
     assert torchshm.bridge705_surrogate is bridge705_surrogate
+    assert not hasattr(generic, "paper_design") and not hasattr(generic, "bridge705_surrogate")

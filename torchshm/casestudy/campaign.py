@@ -2,7 +2,7 @@
 
 The paper's fibre data are not public. In their place the library ships the noise-free,
 gauge-averaged strains of a *truth* structure that is richer than the model
-(:mod:`torchshm.physics.truth`), computed once by ``scripts/make_campaign.py``. Loading needs no
+(:mod:`torchshm.casestudy.truth`), computed once by ``scripts/make_campaign.py``. Loading needs no
 finite element solve: :func:`synthetic_campaign` reads those strains and adds, with
 ``numpy.random.default_rng(seed)``, a random offset per load case (the residual of the
 campaign's offset adjustment) and independent measurement noise. The same seed gives the same
@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from torchshm.casestudy.truth import TruthConfig, gauge_average, solve, spread_loads, truth_mesh, truth_strains
 from torchshm.data.measurements import Measurements
 
 #: the shipped campaign file
@@ -158,12 +159,11 @@ def top_face_truth(truth: CampaignTruth) -> np.ndarray:
     """Noise-free, gauge-averaged top-face strains `L x n` [µε] of the truth structure at the
     positions of ``truth`` (same mesh, loads and gauge as the bottom fibre; the top face lies
     ``depth - c_b`` above the deck axis, with the haunches and the neutral-axis shifts of
-    :func:`~torchshm.physics.truth.deck_sections`).
+    :func:`~torchshm.casestudy.truth.deck_sections`).
 
     Raises:
         ValueError: for a campaign made for other truth parameters.
     """
-    from torchshm.physics.truth import TruthConfig
 
     default = TruthConfig()
     made_for = (float(truth.attrs["truth_E_c"]), float(truth.attrs["truth_log10_K_r"]))
@@ -182,7 +182,6 @@ def _top_strain(pitch: float, start: float, end: float) -> tuple[np.ndarray, np.
 
     import torch
 
-    from torchshm.physics.truth import TruthConfig, gauge_average, solve, spread_loads, truth_mesh
 
     default = TruthConfig()
     model = dataclasses.replace(default.model, sensor_pitch=pitch, sensor_start=start, sensor_end=end)
@@ -202,7 +201,7 @@ def _top_strain(pitch: float, start: float, end: float) -> tuple[np.ndarray, np.
 def dense_truth(pitch: float, shipped: CampaignTruth) -> CampaignTruth:
     """The shipped campaign's truth at another reading pitch [m] (computed, not resampled).
 
-    The truth structure is :class:`~torchshm.physics.truth.TruthConfig` with the fibre
+    The truth structure is :class:`~torchshm.casestudy.truth.TruthConfig` with the fibre
     positions at ``pitch``; its parameters must be those the file was made with (checked).
 
     Raises:
@@ -211,7 +210,6 @@ def dense_truth(pitch: float, shipped: CampaignTruth) -> CampaignTruth:
     """
     if not isinstance(pitch, float) or not np.isfinite(pitch) or pitch <= 0:
         raise ValueError(f"synthetic_campaign: pitch must be a positive number of metres, got {pitch!r}")
-    from torchshm.physics.truth import TruthConfig
 
     default = TruthConfig()
     made_for = (float(shipped.attrs["truth_E_c"]), float(shipped.attrs["truth_log10_K_r"]))
@@ -225,7 +223,6 @@ def dense_truth(pitch: float, shipped: CampaignTruth) -> CampaignTruth:
 def _dense_strain(pitch: float) -> tuple[np.ndarray, np.ndarray]:
     import dataclasses
 
-    from torchshm.physics.truth import TruthConfig, truth_strains
 
     default = TruthConfig()
     config = dataclasses.replace(default, model=dataclasses.replace(default.model, sensor_pitch=pitch))

@@ -9,10 +9,10 @@ import pytest
 import torch
 
 import torchshm
-from torchshm.physics import Bridge705, Bridge705Config, T1_POSITIONS, bridge705
-from torchshm.physics.bridge705 import FORMULATION, bridge_mesh, load_matrix
-from torchshm.physics.frame import solve
-from torchshm.physics.geometry import PierBase
+from torchshm.casestudy import Bridge705, Bridge705Config, T1_POSITIONS, bridge705
+from torchshm.casestudy.model import FORMULATION, bridge_mesh, load_matrix
+from torchshm.casestudy.frame import solve
+from torchshm.casestudy.geometry import PierBase
 
 TRUTH = torch.tensor([35.0, 11.5])
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from torchshm.physics.frame import Frame, bottom_strain, bottom_strain_operator, dof, end_forces, solve, stiffness
+from torchshm.casestudy.frame import Frame, bottom_strain, bottom_strain_operator, dof, end_forces, solve, stiffness
 
 E = 35_000.0  # N/mm²
 WIDTH, DEPTH = 1000.0, 500.0  # mm

@@ -1,7 +1,7 @@
 """A forward model whose batch of θp runs in parallel (joblib processes, Dask, any executor).
 
 Inference calls a forward model with a batch of parameter vectors (emcee: every walker of a
-step at once). :class:`ParallelModel` hands such a batch to :func:`torchshm.storage.evaluate`,
+step at once). :class:`ParallelModel` hands such a batch to :func:`~torchshm.storage.evaluate`,
 which spreads the distinct θp over local processes or cluster jobs, and returns the strains in
 the batch's order. Its identity is the wrapped model's, so an evaluation store holds the same
 entries with and without it.
@@ -16,7 +16,10 @@ import numpy as np
 import torch
 from torch import Tensor
 
+from torchshm.forward.cores import CoresPerRun
 from torchshm.forward.protocol import as_tensor, model_identity
+from torchshm.storage.evaluate import evaluate, plan_cores
+from torchshm.storage.futures import check_executor, is_dask_client
 
 if TYPE_CHECKING:
     from torchshm.forward.protocol import ForwardModel
@@ -36,7 +39,8 @@ class ParallelModel:
         cores_env: the program's own thread variables, set to ``cores_per_run`` too.
 
     Attributes:
-        x, loads, names: those of ``model`` (``names`` only when it declares them).
+        x, loads, names, default_priors: those of ``model`` (``names`` and ``default_priors``
+            only when it declares them).
         identity: ``model``'s identity in an evaluation store.
         model: the model as the workers run it (wrapped in
             :class:`~torchshm.forward.cores.CoresPerRun` when ``cores_per_run`` is given).
@@ -48,10 +52,6 @@ class ParallelModel:
 
     def __init__(self, model: ForwardModel, n_jobs: int = 1, executor: Any | None = None,
                  cores_per_run: int | None = None, cores_env: Sequence[str] = ()) -> None:
-        from torchshm.forward.cores import CoresPerRun
-        from torchshm.storage.evaluate import plan_cores
-        from torchshm.storage.futures import check_executor
-
         if executor is not None:
             check_executor(executor)
         if cores_per_run is not None:
@@ -63,11 +63,11 @@ class ParallelModel:
         self.identity = model_identity(model)
         if getattr(model, "names", None) is not None:
             self.names = model.names
+        if getattr(model, "default_priors", None) is not None:
+            self.default_priors = model.default_priors
 
     def __call__(self, theta_p: object) -> Tensor:
         """Strains `... x L x n` [µε] for `... x P`; NaN rows where a run failed."""
-        from torchshm.storage import evaluate
-
         theta = as_tensor(theta_p).detach()
         flat = theta.reshape(-1, theta.shape[-1]).numpy()
         res = evaluate(self.model, flat, n_jobs=self.n_jobs, executor=self.executor)
@@ -76,12 +76,16 @@ class ParallelModel:
 
     def close(self) -> None:
         """Close a Dask client made by :func:`torchshm.storage.dask_client` (and its cluster)."""
-        from torchshm.storage.futures import is_dask_client
-
         if is_dask_client(self.executor):
             from torchshm.storage.dask_cluster import close_client
 
             close_client(self.executor)
+
+    @property
+    def parallel_plan(self) -> tuple[Any, int, Any]:
+        """``(model, n_jobs, executor)``: how :func:`~torchshm.storage.evaluate` runs a design
+        given this wrapper (its model, with its parallelism)."""
+        return self.model, self.n_jobs, self.executor
 
     def __repr__(self) -> str:
         where = type(self.executor).__name__ if self.executor is not None else f"n_jobs={self.n_jobs}"

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import torch
 
-from torchshm.physics import T1, bridge705
-from torchshm.physics.bridge705 import bridge_mesh
-from torchshm.physics.truth import Crack, TruthConfig, deck_sections, gauge_weights, spread_loads, truth_strains
+from torchshm.casestudy import T1, bridge705
+from torchshm.casestudy.model import bridge_mesh
+from torchshm.casestudy.truth import Crack, TruthConfig, deck_sections, gauge_weights, spread_loads, truth_strains
 
 #: the truth with every refinement switched off, meshed finer than the model over 45–55 m
 PLAIN = TruthConfig(

@@ -1,7 +1,7 @@
 """The 'true' bridge behind the synthetic campaign: a richer frame than the model.
 
 The synthetic measurements stand in for the paper's unpublished fibre data. They come from a
-structure that differs from :class:`~torchshm.physics.bridge705.Bridge705` in ways a real deck
+structure that differs from :class:`~torchshm.casestudy.model.Bridge705` in ways a real deck
 does, so that the model discrepancy is physical rather than drawn from a Gaussian process:
 
 - haunches: the deck thickens linearly towards each pier (stiffer, and a larger distance from
@@ -31,10 +31,10 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from torchshm.physics.config import Bridge705Config
-from torchshm.physics.frame import bottom_strain, solve
-from torchshm.physics.geometry import BridgeMesh, build_mesh
-from torchshm.physics.truck import Truck
+from torchshm.casestudy.config import Bridge705Config
+from torchshm.casestudy.frame import bottom_strain, solve
+from torchshm.casestudy.geometry import BridgeMesh, build_mesh
+from torchshm.casestudy.truck import Truck
 
 
 @dataclass(frozen=True)

@@ -27,9 +27,10 @@ import torch
 from torch import Tensor
 
 from torchshm.forward.protocol import as_tensor
-from torchshm.physics.config import Bridge705Config
-from torchshm.physics.frame import reduced_stiffness
-from torchshm.physics.geometry import BridgeMesh, PierBase, build_mesh
+from torchshm.casestudy.config import Bridge705Config
+from torchshm.casestudy.frame import reduced_stiffness
+from torchshm.casestudy.geometry import BridgeMesh, PierBase, build_mesh
+from torchshm.casestudy.priors import paper_priors
 
 #: formulation tag, part of the model identity (change it when the strains would change)
 FORMULATION = "frame-woodbury-v1"
@@ -156,6 +157,12 @@ class Bridge705:
         correction = self.G @ torch.linalg.solve(A, self.R)  # ... x n x L
         strain = (self.S0 - correction) / E[..., None, None]
         return 1e6 * strain.transpose(-1, -2)
+
+    @staticmethod
+    def default_priors() -> dict[str, object]:
+        """The paper's priors (:func:`~torchshm.casestudy.priors.paper_priors`), which a
+        :class:`~torchshm.Problem` of this model uses when given no priors."""
+        return paper_priors()
 
     def __repr__(self) -> str:
         return f"Bridge705({self.loads.numel()} load cases, {self.x.numel()} sensors, {self.identity})"

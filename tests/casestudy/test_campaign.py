@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import torch
 
-from torchshm.data.campaign import (
+from torchshm.casestudy.campaign import (
     CAMPAIGN_PATH,
     CampaignTruth,
     campaign_truth,
@@ -22,8 +22,8 @@ from torchshm.data.campaign import (
     write_campaign,
 )
 from torchshm.data.measurements import Measurements
-from torchshm.physics import bridge705
-from torchshm.physics.truth import TruthConfig
+from torchshm.casestudy import bridge705
+from torchshm.casestudy.truth import TruthConfig
 
 
 def digest(m: Measurements) -> str:
@@ -52,7 +52,7 @@ def test_same_seed_same_data_different_seed_different_data() -> None:
 
 def test_same_seed_same_data_in_another_process() -> None:
     code = (
-        "import hashlib; from torchshm.data.campaign import synthetic_campaign; m = synthetic_campaign(0); "
+        "import hashlib; from torchshm.casestudy.campaign import synthetic_campaign; m = synthetic_campaign(0); "
         "print(hashlib.sha256(m.y.tobytes() + m.x.tobytes() + m.loads.tobytes()).hexdigest())"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -18,7 +18,7 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from torchshm.physics.frame import Frame, bottom_strain_operator, dof
+from torchshm.casestudy.frame import Frame, bottom_strain_operator, dof
 
 PierBase = Literal["hinged", "fixed", "spring"]
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from torchshm.data.campaign import synthetic_campaign
+from torchshm.casestudy.campaign import synthetic_campaign
 
 
 def test_default_pitch_reads_the_shipped_file_bit_identically() -> None:
@@ -18,7 +18,7 @@ def test_dense_pitch_truth_matches_the_shipped_truth_at_shared_points() -> None:
     dense, coarse = synthetic_campaign(seed=0, pitch=0.05), synthetic_campaign(seed=0)
     assert dense.y.shape == (12, 701)
     np.testing.assert_allclose(dense.x[::2], coarse.x, atol=1e-9)
-    from torchshm.data.campaign import _dense_strain, campaign_truth
+    from torchshm.casestudy.campaign import _dense_strain, campaign_truth
 
     _, strain = _dense_strain(0.05)
     np.testing.assert_allclose(strain[:, ::2], campaign_truth().strain, rtol=0.0, atol=1e-5)  # 6e-6 µε of 73 µε with default threads
