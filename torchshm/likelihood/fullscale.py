@@ -1,0 +1,151 @@
+"""Low rank plus Vecchia: the full-scale form of Eq. (21) for fields of `n x d` coordinates.
+
+The Vecchia form (:mod:`torchshm.likelihood.vecchia`) alone loses tens to hundreds of nats
+when the correlation length spans many pitches: each conditional sees the noise of `m`
+neighbours, not of the whole field. Here the kernel is split (Sang and Huang, 2012; the
+"Vecchia plus inducing points" full-scale approximation of Gyger, Furrer and Sigrist, 2024)::
+
+    K = F Fᵀ + (K - F Fᵀ),     F = K[:, P] R⁻ᵀ,   K[P, P] = R Rᵀ,
+
+``P`` `r` pivots among the first points of the Vecchia plan's coarse-to-fine order (spread
+over the field, chosen by a greedy pivoted Cholesky, :func:`low_rank`),
+``F Fᵀ`` the exact conditional-expectation (Nyström) part that carries the long range, and the
+residual ``K - F Fᵀ`` (zero at the pivots, short-ranged) plus the diagonal ``D`` of Eq. (21)
+approximated by Vecchia. With ``W = R_V⁻¹`` that Vecchia precision (``W = Uᵀ U`` row by row:
+``u_i(v)`` is the last entry of ``L_i⁻¹ v[N(i)+i]``, ``L_i`` the Cholesky factor of point
+``i``'s block), Woodbury gives the density of ``C = F Fᵀ + R_V`` exactly::
+
+    log det C = log det R_V + log det(I + Fᵀ W F),
+    rᵀ C⁻¹ r = rᵀ W r - gᵀ (I + Fᵀ W F)⁻¹ g,      g = Fᵀ W r.
+
+``r = 0`` is the plain Vecchia form; as ``r`` grows the residual tends to ``D`` alone, which
+Vecchia represents exactly, so the error falls with ``r`` (measured, ``docs/likelihood.md``).
+Cost O(n (m³ + m² r + r²)) time, O(n r) memory; plain torch, differentiable, CPU or CUDA.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+from torch import Tensor
+
+from torchshm.kernels import Kernel
+from torchshm.kernels.base import distances
+from torchshm.likelihood import neighbours, vecchia
+from torchshm.likelihood.cholesky import cholesky_with_jitter
+
+LOG_2PI = math.log(2.0 * math.pi)
+#: a pivot whose conditional variance given the earlier pivots falls below this share of
+#: ``sigma_a**2`` ends the low-rank part (the rest of the pivots add nothing numerically)
+PIVOT_TOL = 1e-9
+#: pivots are chosen among the first ``CANDIDATES * rank`` points of the coarse-to-fine order
+CANDIDATES = 4
+#: largest low-rank factor [bytes] per parameter vector (`n x r` float64)
+FACTOR_BYTES = 2**28
+
+
+def rank_for(n: int, requested: int) -> int:
+    """The rank used for `n` points: ``requested``, at most what :data:`FACTOR_BYTES` holds."""
+    return max(0, min(requested, n, FACTOR_BYTES // (8 * n)))
+
+
+def low_rank(xo: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, rank: int) -> Tensor:
+    """The factor `B x n x r'` ``F = K[:, P] R⁻ᵀ`` of at most ``rank`` pivots ``P``.
+
+    The pivots are chosen (without gradient) by a greedy pivoted Cholesky of the correlation
+    among the first ``CANDIDATES * rank`` points of ``xo`` (coarse-to-fine, so spread over the
+    field), for the batch's longest length: each pivot is the candidate worst predicted by the
+    pivots before it; the choice stops when every candidate's conditional correlation-variance
+    is below :data:`PIVOT_TOL`. The factor itself is differentiable.
+
+    Args:
+        xo: `n x d` coordinates [m] in the plan's (coarse-to-fine) order.
+        kern: the kernel; sigma_a: `B` scales [µε]; length: `B` lengths [m].
+        rank: largest number of pivots.
+    """
+    if rank == 0:
+        return xo.new_zeros(sigma_a.shape[0], xo.shape[0], 0)
+    with torch.no_grad():
+        cand = xo[: CANDIDATES * rank]
+        corr = kern.correlation(distances(cand, cand), length.max().reshape(1, 1))
+        pivots = _greedy_pivots(corr, rank)
+    piv = xo[pivots]
+    corr = kern.correlation(distances(piv, piv), length[:, None, None])  # B x r x r
+    chol, _ = cholesky_with_jitter(corr)
+    cross = kern.correlation(distances(xo, piv), length[:, None, None])  # B x n x r
+    factor = torch.linalg.solve_triangular(chol, cross.mT, upper=False).mT
+    return sigma_a[:, None, None] * factor
+
+
+def _greedy_pivots(corr: Tensor, rank: int) -> Tensor:
+    """Indices (at most ``rank``) of a greedy pivoted Cholesky of the `c x c` matrix ``corr``."""
+    c = corr.shape[0]
+    left = corr.diagonal().clone()
+    cols = corr.new_zeros(c, min(rank, c))
+    chosen = []
+    for k in range(min(rank, c)):
+        p = int(torch.argmax(left))
+        if float(left[p]) <= PIVOT_TOL:
+            break
+        col = (corr[:, p] - cols[:, :k] @ cols[p, :k]) / left[p].sqrt()
+        cols[:, k] = col
+        left = left - col.square()
+        left[p] = 0.0
+        chosen.append(p)
+    return torch.as_tensor(chosen, dtype=torch.int64, device=corr.device)
+
+
+def log_density(
+    resid: Tensor, noise: Tensor, x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor,
+    m: int | None = None, rank: int = 0,
+) -> Tensor:
+    """Full-scale (low rank + Vecchia) log densities `B`, summed over load cases.
+
+    Args:
+        resid: `B x L x n` residuals ``y - eta`` [µε].
+        noise: `B x L x n` diagonal ``sigma_m**2 eta**2 + sigma_e**2`` [µε²].
+        x: `n x d` coordinates [m].
+        kern: the discrepancy kernel; sigma_a: `B` scales [µε]; length: `B` lengths [m].
+        m: Vecchia neighbours per point (None: :func:`vecchia.neighbour_count`).
+        rank: pivots of the low-rank part (capped by :func:`rank_for`); 0 is plain Vecchia.
+
+    Returns:
+        `B` log densities; -inf where a block cannot be factorised even with jitter.
+    """
+    m = vecchia.neighbour_count(kern) if m is None else m
+    plan = neighbours.plan(x.detach().cpu().numpy(), m)
+    order = torch.as_tensor(plan.order, device=x.device)
+    resid, noise, xo = resid[..., order], noise[..., order], x[order]
+    n_vec, n_loads, n = resid.shape
+    factor = low_rank(xo, kern, sigma_a, length, rank_for(n, rank))
+    r = factor.shape[-1]
+    quad = resid.new_zeros(n_vec, n_loads)
+    log_det = resid.new_zeros(n_vec, n_loads)
+    gram = resid.new_zeros(n_vec, n_loads, r, r)
+    proj = resid.new_zeros(n_vec, n_loads, r)
+    failed = torch.zeros(n_vec, dtype=torch.bool, device=x.device)
+    step = max(1, vecchia.CHUNK_BYTES // (n_vec * n_loads * (m + 1) * (m + 2 + r) * 8))
+    for start in range(0, n, step):
+        part = slice(start, start + step)
+        chol, valid, safe, bad = vecchia._factor_blocks(plan, part, kern, sigma_a, length, noise, factor)
+        rhs = torch.where(valid, resid[..., safe], 0.0).unsqueeze(-1)  # B x L x c x M x 1
+        if r:
+            rows_f = torch.where(valid[..., None], factor[:, safe], 0.0)  # B x c x M x r
+            rhs = torch.cat([rhs, rows_f[:, None].expand(-1, n_loads, -1, -1, -1)], -1)
+        sol = torch.linalg.solve_triangular(chol, rhs, upper=False)[..., -1, :]  # B x L x c x (1+r)
+        z, u = sol[..., 0], sol[..., 1:]
+        quad = quad + z.square().sum(-1)
+        log_det = log_det + 2.0 * chol[..., -1, -1].log().sum(-1)
+        if r:
+            gram = gram + u.mT @ u
+            proj = proj + (u.mT @ z.unsqueeze(-1))[..., 0]
+        failed |= bad
+    if r:
+        inner = gram + torch.eye(r, dtype=gram.dtype, device=gram.device)
+        chol_i = torch.linalg.cholesky(inner)
+        log_det = log_det + 2.0 * chol_i.diagonal(dim1=-2, dim2=-1).log().sum(-1)
+        w = torch.linalg.solve_triangular(chol_i, proj.unsqueeze(-1), upper=False)[..., 0]
+        quad = quad - w.square().sum(-1)
+    total = -0.5 * (quad + log_det + n * LOG_2PI).sum(-1)
+    return torch.where(failed, -torch.inf, total)
