@@ -41,8 +41,19 @@ LOG_2PI = math.log(2.0 * math.pi)
 PIVOT_TOL = 1e-9
 #: pivots are chosen among the first ``CANDIDATES * rank`` points of the coarse-to-fine order
 CANDIDATES = 4
+#: largest stored block distances of the plan [bytes] (:func:`neighbours_for`)
+PLAN_BYTES = 2**30
 #: largest low-rank factor [bytes] per parameter vector (`n x r` float64)
 FACTOR_BYTES = 2**28
+
+
+def neighbours_for(n: int, requested: int) -> int:
+    """The neighbours used for `n` points: ``requested``, at most what keeps the plan's stored
+    block distances (`n x m(m+1)/2` float64) within :data:`PLAN_BYTES` (m = 15 at 10^6 points)."""
+    m = requested
+    while m > 10 and n * m * (m + 1) // 2 * 8 > PLAN_BYTES:
+        m -= 1
+    return m
 
 
 def rank_for(n: int, requested: int) -> int:

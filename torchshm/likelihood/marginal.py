@@ -123,7 +123,7 @@ def choose_method(
                 "%d points per load case of a %d-D field: the likelihood is the full-scale "
                 "approximation (rank %d + Vecchia with %d neighbours), measured within %s of the exact "
                 "value over the priors' range at 2,500-10,000 points; see docs/likelihood.md",
-                n, dim, rank, FULLSCALE_NEIGHBOURS, fullscale.error_note(n, rank),
+                n, dim, rank, fullscale.neighbours_for(n, FULLSCALE_NEIGHBOURS), fullscale.error_note(n, rank),
             )
         return "fullscale"
     need, have = 2 * 8 * n * n, _physical_memory()
@@ -210,8 +210,9 @@ class Eq21:
         if self.method == "vecchia":
             return vecchia.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length)
         if self.method == "fullscale":
+            n = self.x.shape[0]
             return fullscale.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length,
-                                         FULLSCALE_NEIGHBOURS, FULLSCALE_RANK)
+                                         fullscale.neighbours_for(n, FULLSCALE_NEIGHBOURS), FULLSCALE_RANK)
         if self._shared_noise:
             noise = noise[:, :1]  # identical for every load case: one factorisation
         chol, failed = cholesky_with_jitter(covariance(self.x, self.kern, self.sigma_a, self.length, noise))
