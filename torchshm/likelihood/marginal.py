@@ -16,10 +16,13 @@ the posterior predictive draws (Eq. 15), from the same covariance. Two represent
 - ``"vecchia"``: for fields of `n x d` coordinates (`d >= 2`), the nearest-neighbour (Vecchia)
   approximation of the same Gaussian, O(n m³) time and O(n m) memory
   (:mod:`torchshm.likelihood.vecchia`); differentiable, CPU or CUDA; approximate, with the
-  error measured in ``docs/likelihood.md``.
+  error measured in ``docs/likelihood.md`` (tens to hundreds of nats at long lengths).
+- ``"fullscale"``: for fields, a low-rank part (the long range) plus Vecchia on the residual
+  (:mod:`torchshm.likelihood.fullscale`); differentiable, CPU or CUDA; approximate, within
+  about 1 nat of the dense value over the priors' range (measured, ``docs/likelihood.md``).
 
 ``method="auto"`` takes the state space from :data:`STATE_SPACE_FROM` points per load case
-(the measured crossover, ``docs/likelihood.md``), the Vecchia form for fields from
+(the measured crossover, ``docs/likelihood.md``), the full-scale form for fields from
 :data:`VECCHIA_FROM` points per load case, and refuses, with one line, a dense covariance that
 would not fit in memory.
 """
@@ -50,9 +53,8 @@ STATE_SPACE_FROM = 1000
 #: full-scale (low rank + Vecchia) form: below it the exact dense path costs at most a few
 #: seconds per evaluation
 VECCHIA_FROM = 5000
-#: neighbours and pivots of the full-scale form that ``"auto"`` takes (measured within about
-#: 1 nat of the dense value over the priors' range, ``docs/likelihood.md``); the rank is capped
-#: by memory (:data:`torchshm.likelihood.fullscale.FACTOR_BYTES`)
+#: neighbours and pivots of the full-scale form of ``"auto"`` (``docs/likelihood.md``), capped
+#: by memory (:func:`torchshm.likelihood.fullscale.neighbours_for`, ``rank_for``)
 FULLSCALE_NEIGHBOURS = 30
 FULLSCALE_RANK = 512
 #: largest dense covariance batch [bytes] built and factorised at once when sampling
@@ -114,7 +116,7 @@ def choose_method(
         raise ValueError(f"method={method!r} is for n x d coordinates (d >= 2); positions along a "
                          "line use 'state_space' or 'dense'")
     if method == "vecchia":
-        return "vecchia"
+        return method
     if method == "fullscale" or (method == "auto" and dim > 1 and n >= VECCHIA_FROM):
         if method == "auto" and not _SAID["fullscale"]:
             _SAID["fullscale"] = True
@@ -160,7 +162,8 @@ class Eq21:
         sigma_a: `B` discrepancy scales [µε]; length: `B` correlation lengths [m].
         sigma_m: multiplicative model error (dimensionless); sigma_e: noise sd [µε]; each
             one number, or a `B` tensor (one per parameter vector, when they are inferred).
-        method: ``"auto"``, ``"dense"``, ``"state_space"`` or ``"vecchia"`` (see :func:`choose_method`).
+        method: ``"auto"``, ``"dense"``, ``"state_space"``, ``"fullscale"`` or ``"vecchia"``
+            (see :func:`choose_method`).
         extra: `B x L x n` variance [µε²] added to the diagonal, or None: e.g. an emulator's
             predictive variance of ``eta`` (the exact marginal over a Gaussian error of it).
     """
