@@ -123,8 +123,8 @@ def choose_method(
             rank = fullscale.rank_for(n, FULLSCALE_RANK)
             logger.warning(
                 "%d points per load case of a %d-D field: the likelihood is the full-scale "
-                "approximation (rank %d + Vecchia with %d neighbours), measured within %s of the exact "
-                "value over the priors' range at 2,500-10,000 points; see docs/likelihood.md",
+                "approximation (rank %d + Vecchia with %d neighbours), not the exact density (its error: %s); "
+                "see docs/likelihood.md",
                 n, dim, rank, fullscale.neighbours_for(n, FULLSCALE_NEIGHBOURS), fullscale.error_note(n, rank),
             )
         return "fullscale"
