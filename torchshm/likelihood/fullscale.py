@@ -41,6 +41,8 @@ LOG_2PI = math.log(2.0 * math.pi)
 PIVOT_TOL = 1e-9
 #: pivots are chosen among the first ``CANDIDATES * rank`` points of the coarse-to-fine order
 CANDIDATES = 4
+#: rows of the low-rank factor computed at once [bytes of `B x rows x r` float64]
+CHUNK_BYTES = 2**24
 #: largest stored block distances of the plan [bytes] (:func:`neighbours_for`)
 PLAN_BYTES = 2**30
 #: largest low-rank factor [bytes] per parameter vector (`n x r` float64)
@@ -84,9 +86,12 @@ def low_rank(xo: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, rank: in
     piv = xo[pivots]
     corr = kern.correlation(distances(piv, piv), length[:, None, None])  # B x r x r
     chol, _ = cholesky_with_jitter(corr)
-    cross = kern.correlation(distances(xo, piv), length[:, None, None])  # B x n x r
-    factor = torch.linalg.solve_triangular(chol, cross.mT, upper=False).mT
-    return sigma_a[:, None, None] * factor
+    step = max(1, CHUNK_BYTES // (8 * piv.shape[0] * sigma_a.shape[0]))
+    parts = []
+    for start in range(0, xo.shape[0], step):  # in chunks: the kernel's temporaries stay small
+        cross = kern.correlation(distances(xo[start : start + step], piv), length[:, None, None])  # B x c x r
+        parts.append(torch.linalg.solve_triangular(chol, cross.mT, upper=False).mT)
+    return sigma_a[:, None, None] * torch.cat(parts, dim=1)
 
 
 def _greedy_pivots(corr: Tensor, rank: int) -> Tensor:
