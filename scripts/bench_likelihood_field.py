@@ -1,24 +1,26 @@
-"""Benchmark of the Vecchia form of Eq. (21) on 2-D fields (``docs/likelihood.md``).
+"""Benchmark of the full-scale and Vecchia forms of Eq. (21) on 2-D fields (``docs/likelihood.md``).
 
-Two parts, run by ``scripts/bench_likelihood.py --only-field`` (or this file directly):
+Three parts, run by ``scripts/bench_likelihood.py --only-field`` (error and scaling), or this
+file directly:
 
-- error: |Δ log-likelihood| of the Vecchia form (m = 10, the default, 20 and 30) against the
-  exact dense value, over the priors' range (σa 0.2 and 5 µε, l = 0.02, 0.2 and 1 × the field
-  size, σe 0.05 and 1 µε, σm 0 and 0.05), on a `side x side` grid of a unit square, with y drawn
-  from the exact Gaussian and a heteroscedastic diagonal (η uniform in 20..100 µε);
+- error: Δ log-likelihood of plain Vecchia (m = 10) and of the full-scale form of
+  ``method="auto"`` (rank 512 + Vecchia m = 30) against the exact dense value, over the priors'
+  range (σa 0.2 and 5 µε, l = 0.02, 0.2 and 1 × the field size, σe 0.05 and 1 µε, σm 0 and
+  0.05; ``--corners``: σa = 5, σe = 0.05 only), on a `side x side` grid of a unit square, with
+  y drawn from the exact Gaussian and a heteroscedastic diagonal (η uniform in 20..100 µε);
 - time and memory: one parameter vector, one load case, Matérn 3/2, σa = 1 µε, l = 0.05 m,
-  σe = 0.1 µε, σm = 0.05, at 10^4, 10^5 and 10^6 grid points, each size in a fresh process
-  (peak resident set during the call minus before it): the plan (order and neighbours, once
-  per point set), one call, and beside it at 10^4 the dense path, scikit-learn's exact
+  σe = 0.1 µε, σm = 0.05, at 10^4, 10^5 and 10^6 grid points, each size and form in a fresh
+  process (peak resident set during the calls minus before them): the plan (order and
+  neighbours, once per point set), one call, for the Vecchia form one predictive draw, and
+  beside the full-scale form at 10^4 the dense path, scikit-learn's exact
   ``GaussianProcessRegressor.log_marginal_likelihood`` (the same kernel and diagonal) and a
-  plain numpy computation of the same Vecchia sum on the same conditioning sets (the
-  reference of the value; written for this benchmark, batched ``numpy.linalg.cholesky``);
-  then one predictive draw of the field (``Eq21.sample``, sparse triangular solve).
+  plain numpy computation of the Vecchia sum (m = 10) on the same conditioning sets;
+- posterior (``--posterior-only``): a grid posterior of (σa, l), dense against both forms.
 
-Usage::
+Usage (from the repository root)::
 
-    OMP_NUM_THREADS=1 python scripts/bench_likelihood_field.py [--side 50] [--corners]
-        [--error-only | --scaling-only | --posterior-only]
+    PYTHONPATH=. OMP_NUM_THREADS=1 python scripts/bench_likelihood_field.py [--side 50] [--corners]
+        [--kernels a,b] [--sides 100,316,1000] [--error-only | --scaling-only | --posterior-only]
 """
 
 from __future__ import annotations
