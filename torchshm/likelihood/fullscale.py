@@ -2,8 +2,8 @@
 
 The Vecchia form (:mod:`torchshm.likelihood.vecchia`) alone loses tens to hundreds of nats
 when the correlation length spans many pitches: each conditional sees the noise of `m`
-neighbours, not of the whole field. Here the kernel is split (Sang and Huang, 2012; the
-"Vecchia plus inducing points" full-scale approximation of Gyger, Furrer and Sigrist, 2024)::
+neighbours, not of the whole field. Here the kernel is split (the full-scale approximation of
+Sang and Huang, 2012, with a Vecchia residual as in GPBoost's Vecchia-inducing-points one)::
 
     K = F Fᵀ + (K - F Fᵀ),     F = K[:, P] R⁻ᵀ,   K[P, P] = R Rᵀ,
 
