@@ -171,8 +171,9 @@ def error_note(n: int, rank: int) -> str:
     """The measured error of the full-scale form with ``rank`` pivots, for a warning."""
     if rank >= 512:
         return ("|error| <= 0.25 nat at 2,500 points with sigma_m = 0.05 and up to 1.3 nat with sigma_m = 0 "
-                "and sigma_e = 0.05 µε (lengths of 1-10 pitches); at 10^4 points up to 1.5 nat with "
-                "sigma_m = 0.05 and 5.4 nat with sigma_m = 0, growing with n")
+                "and sigma_e = 0.05 µε (lengths of 1-10 pitches); at 10^4 points, for lengths of 2-20 "
+                "pitches and sigma_e = 0.05 µε, 1.5-11 nat with sigma_m = 0.05 and up to 1,430 nat "
+                "(squared exponential, 2 pitches) with sigma_m = 0, growing with n")
     return (f"an unmeasured amount at rank {rank} (capped by memory at {n} points, FACTOR_BYTES), "
-            "larger than at rank 512 (<= 5.4 nat at 10^4 points); at rank 0 (plain Vecchia) it is "
+            "larger than at rank 512 (up to 1,430 nat at 10^4 points); at rank 0 (plain Vecchia) it is "
             "tens to hundreds of nats once l spans many pitches")

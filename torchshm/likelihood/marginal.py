@@ -18,8 +18,8 @@ the posterior predictive draws (Eq. 15), from the same covariance. Two represent
   (:mod:`torchshm.likelihood.vecchia`); differentiable, CPU or CUDA; approximate, with the
   error measured in ``docs/likelihood.md`` (tens to hundreds of nats at long lengths).
 - ``"fullscale"``: for fields, a low-rank part (the long range) plus Vecchia on the residual
-  (:mod:`torchshm.likelihood.fullscale`); differentiable, CPU or CUDA; approximate, within
-  about 1 nat of the dense value over the priors' range (measured, ``docs/likelihood.md``).
+  (:mod:`torchshm.likelihood.fullscale`); differentiable, CPU or CUDA; approximate (error
+  small at long lengths, large at short ones with little noise: ``docs/likelihood.md``).
 
 ``method="auto"`` takes the state space from :data:`STATE_SPACE_FROM` points per load case
 (the measured crossover, ``docs/likelihood.md``), the full-scale form for fields from
