@@ -22,7 +22,7 @@ Then the O(n) state-space form (``docs/likelihood.md``):
 - n = 10^3 .. 10^6 in one load case (``matern32``): time and peak memory growth (peak resident
   set during the call minus the resident set before it), each size in a fresh subprocess.
 
-2-D fields (the Vecchia form): ``--only-field`` runs ``scripts/bench_likelihood_field.py``
+2-D fields (the full-scale and Vecchia forms): ``--only-field`` runs ``scripts/bench_likelihood_field.py``
 (error against the dense path over the priors' range; 10^4 .. 10^6 points, one parameter
 vector, one load case, beside the dense path, scikit-learn's exact GP and a numpy reference).
 
@@ -262,7 +262,7 @@ def main() -> None:
     parser.add_argument("--only-scaling", action="store_true", help="only n = 10^3 .. 10^6")
     parser.add_argument("--only-celerite", action="store_true", help="only n = 10^5 x 12 beside celerite2")
     parser.add_argument("--only-draws", action="store_true", help="only the O(n) predictive draws")
-    parser.add_argument("--only-field", action="store_true", help="only the 2-D fields (Vecchia form)")
+    parser.add_argument("--only-field", action="store_true", help="only the 2-D fields (full-scale and Vecchia forms)")
     parser.add_argument("--one-size", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.only_field:

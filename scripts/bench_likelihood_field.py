@@ -1,24 +1,26 @@
-"""Benchmark of the Vecchia form of Eq. (21) on 2-D fields (``docs/likelihood.md``).
+"""Benchmark of the full-scale and Vecchia forms of Eq. (21) on 2-D fields (``docs/likelihood.md``).
 
-Two parts, run by ``scripts/bench_likelihood.py --only-field`` (or this file directly):
+Three parts, run by ``scripts/bench_likelihood.py --only-field`` (error and scaling), or this
+file directly:
 
-- error: |Δ log-likelihood| of the Vecchia form (m = 10, the default, 20 and 30) against the
-  exact dense value, over the priors' range (σa 0.2 and 5 µε, l = 0.02, 0.2 and 1 × the field
-  size, σe 0.05 and 1 µε, σm 0 and 0.05), on a `side x side` grid of a unit square, with y drawn
-  from the exact Gaussian and a heteroscedastic diagonal (η uniform in 20..100 µε);
+- error: Δ log-likelihood of plain Vecchia (m = 10) and of the full-scale form of
+  ``method="auto"`` (rank 512 + Vecchia m = 30) against the exact dense value, over the priors'
+  range (σa 0.2 and 5 µε, l = 0.02, 0.2 and 1 × the field size, σe 0.05 and 1 µε, σm 0 and
+  0.05; ``--corners``: σa = 5, σe = 0.05 only), on a `side x side` grid of a unit square, with
+  y drawn from the exact Gaussian and a heteroscedastic diagonal (η uniform in 20..100 µε);
 - time and memory: one parameter vector, one load case, Matérn 3/2, σa = 1 µε, l = 0.05 m,
-  σe = 0.1 µε, σm = 0.05, at 10^4, 10^5 and 10^6 grid points, each size in a fresh process
-  (peak resident set during the call minus before it): the plan (order and neighbours, once
-  per point set), one call, and beside it at 10^4 the dense path, scikit-learn's exact
+  σe = 0.1 µε, σm = 0.05, at 10^4, 10^5 and 10^6 grid points, each size and form in a fresh
+  process (peak resident set during the calls minus before them): the plan (order and
+  neighbours, once per point set), one call, for the Vecchia form one predictive draw, and
+  beside the full-scale form at 10^4 the dense path, scikit-learn's exact
   ``GaussianProcessRegressor.log_marginal_likelihood`` (the same kernel and diagonal) and a
-  plain numpy computation of the same Vecchia sum on the same conditioning sets (the
-  reference of the value; written for this benchmark, batched ``numpy.linalg.cholesky``);
-  then one predictive draw of the field (``Eq21.sample``, sparse triangular solve).
+  plain numpy computation of the Vecchia sum (m = 10) on the same conditioning sets;
+- posterior (``--posterior-only``): a grid posterior of (σa, l), dense against both forms.
 
-Usage::
+Usage (from the repository root)::
 
-    OMP_NUM_THREADS=1 python scripts/bench_likelihood_field.py [--side 50] [--corners]
-        [--error-only | --scaling-only | --posterior-only]
+    PYTHONPATH=. OMP_NUM_THREADS=1 python scripts/bench_likelihood_field.py [--side 50] [--corners]
+        [--kernels a,b] [--sides 100,316,1000] [--error-only | --scaling-only | --posterior-only]
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ import torch
 
 import torchshm
 from torchshm.kernels import get_kernel
-from torchshm.likelihood import marginal, neighbours, vecchia
+from torchshm.likelihood import fullscale, marginal, neighbours, vecchia
 
 KERNELS = ("exponential", "matern32", "matern52", "squared_exponential")
 SA, LENGTH, SE, SM = 1.0, 0.05, 0.1, 0.05
@@ -48,59 +50,67 @@ def grid(side: int) -> np.ndarray:
     return np.stack(np.meshgrid(g, g), -1).reshape(-1, 2)
 
 
-def error(side: int, seed: int, corners: bool = False) -> None:
-    """The error table over the priors' range (one dense factorisation per row); ``corners``:
-    only σm = 0.05 and the two extreme signal-to-noise pairs (σa, σe) = (5, 0.05) and (0.2, 1)."""
+def error(side: int, seed: int, corners: bool = False, kernels: tuple[str, ...] = KERNELS) -> None:
+    """The error table over the priors' range (one dense factorisation per row): plain Vecchia
+    (m = 10) and the full-scale form that ``method="auto"`` takes (rank 512 + Vecchia m = 30);
+    ``corners``: only σa = 5 µε, σe = 0.05 µε (largest signal, smallest noise), σm 0 and 0.05."""
     x = torch.as_tensor(grid(side))
     n = x.shape[0]
     rng = np.random.default_rng(seed)
     eta = torch.as_tensor(rng.uniform(20.0, 100.0, (1, n)))
-    print(f"\n{n:,} points ({side} x {side} grid of the unit square): Vecchia − dense [nat]\n")
-    print("| kernel | σa [µε] | l | σe [µε] | σm | m = 10 | m = 20 | m = 30 |")
+    print(f"\n{n:,} points ({side} x {side} grid of the unit square): approximation − dense [nat]\n")
+    print("| kernel | σa [µε] | l | σe [µε] | σm | vecchia m = 10 | fullscale (auto) | CPU [s] fullscale / dense |")
     print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
-    for name in KERNELS:
+    for name in kernels:
         kern = get_kernel(name)
         grid_ = itertools.product((0.2, 5.0), (0.02, 0.2, 1.0), (0.05, 1.0), (0.0, 0.05))
         if corners:
-            grid_ = [(sa, ell, se, 0.05) for (sa, se) in ((5.0, 0.05), (0.2, 1.0)) for ell in (0.02, 0.2, 1.0)]
+            grid_ = [(5.0, ell, 0.05, sm) for sm in (0.0, 0.05) for ell in (0.02, 0.2, 1.0)]
         for sa, ell, se, sm in grid_:
             noise = sm**2 * eta[None] ** 2 + se**2
+            start = time.process_time()
             cov = marginal.covariance(x, kern, torch.tensor([sa]), torch.tensor([ell]), noise)[0, 0]
             chol = torch.linalg.cholesky(cov)
             z = torch.as_tensor(rng.standard_normal(n))
             y = eta + (chol @ z)[None]
             # the exact dense log density from the same factor (what method="dense" computes)
             exact = -0.5 * (z.square().sum() + 2.0 * chol.diagonal().log().sum() + n * math.log(2.0 * math.pi))
-            cells = []
-            for m in (10, 20, 30):
-                vecchia.NEIGHBOURS[name] = m
-                cells.append(float(torchshm.log_likelihood(y, eta, x, name, sa, ell, sm, se, method="vecchia") - exact))
-            vecchia.NEIGHBOURS[name] = vecchia.DEFAULT_NEIGHBOURS
-            print(f"| {name} | {sa} | {ell} | {se} | {sm} | " + " | ".join(f"{c:+.3f}" for c in cells) + " |", flush=True)
+            dense_cpu = time.process_time() - start
+            del cov, chol
+            plain = float(torchshm.log_likelihood(y, eta, x, name, sa, ell, sm, se, method="vecchia") - exact)
+            start = time.process_time()
+            full = float(torchshm.log_likelihood(y, eta, x, name, sa, ell, sm, se, method="fullscale") - exact)
+            cpu = time.process_time() - start
+            print(f"| {name} | {sa} | {ell} | {se} | {sm} | {plain:+.3f} | {full:+.3f} | {cpu:.1f} / {dense_cpu:.1f} |", flush=True)
 
 
-def posterior_grid(seed: int) -> None:
-    """Grid posterior of (log σa, log l) under a flat prior, dense against Vecchia (m = 10):
-    2,500 points, y drawn at σa = 1 µε, l = 0.1, σe = 0.1 µε, σm = 0.05; 13 x 13 grid,
-    σa 0.3..3 µε, l 0.03..0.3 (log-spaced)."""
-    x = torch.as_tensor(grid(50))
+def posterior_grid(seed: int, side: int, kernels: tuple[str, ...], steps: int = 9) -> None:
+    """Grid posterior of (log σa, log l) under a flat prior, dense against the full-scale form
+    (``"auto"``) and plain Vecchia (m = 10): `side²` points, y drawn at σa = 1 µε, l = 0.1
+    (about 7 pitches at side 70), σe = 0.1 µε, σm = 0.05; `steps x steps` grid, σa 0.8..1.25 µε,
+    l 0.07..0.14 (log-spaced; about ±2 sd around the truth)."""
+    n = side * side
+    x = torch.as_tensor(grid(side))
     rng = np.random.default_rng(seed)
-    sa = np.exp(np.linspace(np.log(0.3), np.log(3.0), 13))
-    ell = np.exp(np.linspace(np.log(0.03), np.log(0.3), 13))
+    sa = np.exp(np.linspace(np.log(0.8), np.log(1.25), steps))
+    ell = np.exp(np.linspace(np.log(0.07), np.log(0.14), steps))
     s_grid, l_grid = (torch.as_tensor(a.ravel()) for a in np.meshgrid(sa, ell, indexing="ij"))
-    print("\n| kernel | method | mean ± sd of log σa | mean ± sd of log l |\n| --- | --- | ---: | ---: |")
-    for name in ("exponential", "matern32", "squared_exponential"):
-        eta = torch.as_tensor(rng.uniform(20.0, 100.0, (1, 2500)))
+    print(f"\n{n:,} points; | kernel | method | mean ± sd of log σa | mean ± sd of log l | CPU [s] |\n| --- | --- | ---: | ---: | ---: |")
+    for name in kernels:
+        eta = torch.as_tensor(rng.uniform(20.0, 100.0, (1, n)))
         cov = marginal.covariance(x, get_kernel(name), torch.tensor([1.0]), torch.tensor([0.1]), SM**2 * eta[None] ** 2 + SE**2)
-        y = eta + (torch.linalg.cholesky(cov[0, 0]) @ torch.as_tensor(rng.standard_normal(2500)))[None]
-        for method in ("dense", "vecchia"):
-            v = torch.stack([torchshm.log_likelihood(y, eta, x, name, a, b, SM, SE, method=method) for a, b in zip(s_grid, l_grid)])
+        y = eta + (torch.linalg.cholesky(cov[0, 0]) @ torch.as_tensor(rng.standard_normal(n)))[None]
+        del cov
+        for method in ("dense", "fullscale", "vecchia"):
+            start = time.process_time()
+            with torch.no_grad():
+                v = torch.stack([torchshm.log_likelihood(y, eta, x, name, a, b, SM, SE, method=method) for a, b in zip(s_grid, l_grid)])
             w = torch.softmax(v, 0)
             cells = []
             for t in (s_grid.log(), l_grid.log()):
                 mean = float((w * t).sum())
-                cells.append(f"{mean:.3f} ± {float((w * (t - mean).square()).sum()) ** 0.5:.3f}")
-            print(f"| {name} | {method} | {cells[0]} | {cells[1]} |", flush=True)
+                cells.append(f"{mean:.4f} ± {float((w * (t - mean).square()).sum()) ** 0.5:.4f}")
+            print(f"| {name} | {method} | {cells[0]} | {cells[1]} | {time.process_time() - start:.0f} |", flush=True)
 
 
 def numpy_vecchia(y: np.ndarray, eta: np.ndarray, xy: np.ndarray, plan: neighbours.Plan) -> float:
@@ -122,8 +132,9 @@ def numpy_vecchia(y: np.ndarray, eta: np.ndarray, xy: np.ndarray, plan: neighbou
     return total
 
 
-def one_size(side: int, seed: int) -> None:
-    """(child process) plan, one call, peak memory growth; at 10^4 the references as well."""
+def one_size(side: int, seed: int, method: str) -> None:
+    """(child process) plan, one call of ``method``, peak memory growth; for the Vecchia form a
+    predictive draw, for the full-scale form at 10^4 the references as well."""
     torch.set_num_threads(1)
     xy = grid(side)
     n = xy.shape[0]
@@ -132,24 +143,30 @@ def one_size(side: int, seed: int) -> None:
     y = eta + rng.normal(0.0, 1.0, n)
     x, yt, et = torch.as_tensor(xy), torch.as_tensor(y[None]), torch.as_tensor(eta[None])
     small = torch.as_tensor(grid(20))  # warm-up: first-call initialisation is not part of the growth
-    torchshm.log_likelihood(yt[:, :400], et[:, :400], small, "matern32", SA, LENGTH, SM, SE, method="vecchia")
+    torchshm.log_likelihood(yt[:, :400], et[:, :400], small, "matern32", SA, LENGTH, SM, SE, method=method)
+    m = vecchia.neighbour_count(get_kernel("matern32"))
+    what = f"m = {m}"
+    if method == "fullscale":
+        m = fullscale.neighbours_for(n, marginal.FULLSCALE_NEIGHBOURS)
+        what = f"m = {m}, rank {fullscale.rank_for(n, marginal.FULLSCALE_RANK)}"
     before = _rss_bytes()
     start_cpu, start = time.process_time(), time.perf_counter()
-    plan = neighbours.plan(xy, vecchia.neighbour_count(get_kernel("matern32")))
-    rows = [("plan (order, neighbours, distances; once per point set)", time.perf_counter() - start, time.process_time() - start_cpu, "")]
+    plan = neighbours.plan(xy, m)
+    rows = [(f"plan, {what} (order, neighbours, distances; once per point set)", time.perf_counter() - start, time.process_time() - start_cpu, "")]
     for _ in range(2):
         start_cpu, start = time.process_time(), time.perf_counter()
         with torch.no_grad():
-            value = float(torchshm.log_likelihood(yt, et, x, "matern32", SA, LENGTH, SM, SE, method="vecchia"))
-        rows.append(("`torchshm.log_likelihood`, method='vecchia' (m = 10)", time.perf_counter() - start, time.process_time() - start_cpu, f"{value:.3f}"))
+            value = float(torchshm.log_likelihood(yt, et, x, "matern32", SA, LENGTH, SM, SE, method=method))
+        rows.append((f"`torchshm.log_likelihood`, method={method!r} ({what})", time.perf_counter() - start, time.process_time() - start_cpu, f"{value:.3f}"))
     del rows[1]  # the first call after the plan
-    gaussian = marginal.Eq21(et[None], x, get_kernel("matern32"), torch.tensor([SA]), torch.tensor([LENGTH]), SM, SE, "vecchia")
-    start_cpu, start = time.process_time(), time.perf_counter()
-    draw = gaussian.sample(torch.Generator().manual_seed(seed))
-    rows.append(("one predictive draw, `Eq21.sample` (Vecchia, m = 10)", time.perf_counter() - start, time.process_time() - start_cpu, f"sd {float((draw - et).std()):.3f}"))
+    if method == "vecchia":
+        gaussian = marginal.Eq21(et[None], x, get_kernel("matern32"), torch.tensor([SA]), torch.tensor([LENGTH]), SM, SE, "vecchia")
+        start_cpu, start = time.process_time(), time.perf_counter()
+        draw = gaussian.sample(torch.Generator().manual_seed(seed))
+        rows.append((f"one predictive draw, `Eq21.sample` (Vecchia, {what})", time.perf_counter() - start, time.process_time() - start_cpu, f"sd {float((draw - et).std()):.3f}"))
     peak = _peak_rss_bytes()
-    if n <= 10_000:
-        rows += _references(xy, y, eta, x, yt, et, plan)
+    if n <= 10_000 and method == "fullscale":
+        rows += _references(xy, y, eta, x, yt, et, neighbours.plan(xy, 10))
     for label, wall, cpu, val in rows:
         print(f"{label}\t{wall}\t{cpu}\t{val}")
     print(f"growth\t{max(0, peak - before)}")
@@ -181,20 +198,21 @@ def _sklearn(xy, y, eta, gpr, constant, matern) -> float:  # noqa: ANN001
     return float(model.log_marginal_likelihood_value_)
 
 
-def scaling(seed: int) -> None:
-    """10^4, 10^5, 10^6 points, one fresh process each."""
+def scaling(seed: int, sides: tuple[int, ...] = (100, 316, 1000)) -> None:
+    """10^4, 10^5, 10^6 points, one fresh process per size and method."""
     print("\n| n | what | wall [s] | CPU [s] | value | peak memory growth [MB] |")
     print("| ---: | --- | ---: | ---: | ---: | ---: |")
-    for side in (100, 316, 1000):
-        out = subprocess.run(
-            [sys.executable, __file__, "--one-side", str(side), "--seed", str(seed)],
-            check=True, capture_output=True, text=True, env={**os.environ, "OMP_NUM_THREADS": "1"},
-        ).stdout.strip().splitlines()
-        grow = int(out[-1].split("\t")[1]) / 2**20
-        for line in out[:-1]:
-            label, wall, cpu, val = line.split("\t")
-            mem = f"{grow:.0f}" if label.endswith("(m = 10)") else ""
-            print(f"| {side * side:,} | {label} | {float(wall):.3f} | {float(cpu):.3f} | {val} | {mem} |", flush=True)
+    for side in sides:
+        for method in ("vecchia", "fullscale"):
+            out = subprocess.run(
+                [sys.executable, __file__, "--one-side", str(side), "--method", method, "--seed", str(seed)],
+                check=True, capture_output=True, text=True, env={**os.environ, "OMP_NUM_THREADS": "1"},
+            ).stdout.strip().splitlines()
+            grow = int(out[-1].split("\t")[1]) / 2**20
+            for line in out[:-1]:
+                label, wall, cpu, val = line.split("\t")
+                mem = f"{grow:.0f}" if label.startswith("`torchshm.log_likelihood`, method=") and "dense" not in label else ""
+                print(f"| {side * side:,} | {label} | {float(wall):.3f} | {float(cpu):.3f} | {val} | {mem} |", flush=True)
 
 
 def _rss_bytes() -> int:
@@ -211,24 +229,29 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--side", type=int, default=50, help="grid side of the error table")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--corners", action="store_true", help="error table: extreme σa/σe pairs only")
+    parser.add_argument("--corners", action="store_true", help="error table: largest σa, smallest σe only")
+    parser.add_argument("--kernels", default=",".join(KERNELS), help="comma-separated kernels of the error/posterior tables")
+    parser.add_argument("--steps", type=int, default=9, help="grid posterior: steps per parameter")
     parser.add_argument("--posterior-only", action="store_true", help="grid posterior of (σa, l), dense vs Vecchia")
     parser.add_argument("--error-only", action="store_true")
     parser.add_argument("--scaling-only", action="store_true")
     parser.add_argument("--one-side", type=int, default=0, help=argparse.SUPPRESS)
+    parser.add_argument("--method", default="vecchia", help=argparse.SUPPRESS)
+    parser.add_argument("--sides", default="100,316,1000", help="grid sides of the scaling table")
     args = parser.parse_args(argv)
     torch.set_num_threads(1)
     if args.one_side:
-        one_size(args.one_side, args.seed)
+        one_size(args.one_side, args.seed, args.method)
         return
     print(f"uptime: {os.getloadavg()} (1, 5, 15 min load averages); torch {torch.__version__}, 1 thread")
+    kernels = tuple(args.kernels.split(","))
     if args.posterior_only:
-        posterior_grid(args.seed)
+        posterior_grid(args.seed, args.side, kernels, args.steps)
         return
     if not args.scaling_only:
-        error(args.side, args.seed, args.corners)
+        error(args.side, args.seed, args.corners, kernels)
     if not args.error_only:
-        scaling(args.seed)
+        scaling(args.seed, tuple(int(v) for v in args.sides.split(",")))
     print(f"\nuptime after: {os.getloadavg()}")
 
 

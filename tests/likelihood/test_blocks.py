@@ -78,10 +78,10 @@ def test_one_unmasked_line_is_the_plain_likelihood(campaign: dict) -> None:
     assert torch.equal(got, log_likelihood(y, eta, x, "matern32", s, ell, 0.05, 0.1))
 
 
-def test_coordinates_are_dense_or_vecchia_and_refused_in_the_state_space() -> None:
+def test_coordinates_are_dense_or_fullscale_and_refused_in_the_state_space() -> None:
     kern = get_kernel("matern32")
     assert choose_method(kern, 4999, "auto", dim=2) == "dense"
-    assert choose_method(kern, 10**7, "auto", dim=2) == "vecchia"
+    assert choose_method(kern, 10**7, "auto", dim=2) == "fullscale"
     with pytest.raises(ValueError, match="2-D coordinates: no state-space form"):
         choose_method(kern, 50, "state_space", dim=2)
     with pytest.raises(ValueError, match="GiB"):

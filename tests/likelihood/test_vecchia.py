@@ -132,13 +132,13 @@ def test_draws_with_full_sets_are_the_cholesky_draws(rng: np.random.Generator) -
 
 
 def test_predictive_draws_of_a_large_field_have_the_model_covariance() -> None:
-    """Eq21.sample at 6,400 points takes the Vecchia form: per-point variance σa² + σe² (5 %)
+    """Eq21.sample at 6,400 points ("auto": full-scale, drawn from the Vecchia factor): per-point variance σa² + σe² (5 %)
     and the correlation of neighbours one pitch apart (0.02), pooled over 30 draws."""
     xy = torch.as_tensor(_grid(80, 0.01))
     eta = torch.zeros(30, 1, 6400, dtype=torch.float64)
     sa, ell = torch.full((30,), 2.0), torch.full((30,), 0.05)
     gaussian = marginal.Eq21(eta, xy, get_kernel("exponential"), sa, ell, 0.0, 0.3)
-    assert gaussian.method == "vecchia"
+    assert gaussian.method == "fullscale"  # "auto": its draws are the Vecchia draws
     draws = gaussian.sample(torch.Generator().manual_seed(1)).reshape(30, 80, 80)
     assert float(draws.var()) == pytest.approx(4.0 + 0.09, rel=0.05)
     near = (draws[..., 1:] * draws[..., :-1]).mean() / draws.var()  # neighbours along x

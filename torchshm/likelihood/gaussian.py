@@ -55,8 +55,9 @@ def log_likelihood(
     density is computed from the kernel's state-space form in O(n) time and memory instead
     (any sorted or unsorted positions, repeats allowed; ``docs/likelihood.md``). For fields of
     `n x d` coordinates from :data:`~torchshm.likelihood.marginal.VECCHIA_FROM` points per load
-    case, the nearest-neighbour (Vecchia) approximation is used instead of the dense covariance
-    (:mod:`torchshm.likelihood.vecchia`; its measured error is in ``docs/likelihood.md``). All
+    case, the full-scale approximation (low rank + nearest neighbours) is used instead of the
+    dense covariance (:mod:`torchshm.likelihood.fullscale`; its measured error is in
+    ``docs/likelihood.md``). All
     forms are differentiable by autograd, on CPU and CUDA tensors.
 
     Args:
@@ -72,8 +73,8 @@ def log_likelihood(
             a number, or a tensor broadcastable to `...` when it is inferred.
         sigma_e: standard deviation of the measurement noise [µε], >= 0; a number or a
             tensor broadcastable to `...`.
-        method: ``"auto"`` (default), ``"dense"``, ``"state_space"`` (1-D positions) or
-            ``"vecchia"`` (`n x d` coordinates).
+        method: ``"auto"`` (default), ``"dense"``, ``"state_space"`` (1-D positions),
+            ``"fullscale"`` or ``"vecchia"`` (`n x d` coordinates).
         extra_variance: `... x L x n` variance [µε²] added to the diagonal of each load case's
             covariance, or None: e.g. an emulator's predictive variance of ``eta``, which makes
             the density the exact marginal over a Gaussian error of ``eta``.

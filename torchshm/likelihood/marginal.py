@@ -16,10 +16,13 @@ the posterior predictive draws (Eq. 15), from the same covariance. Two represent
 - ``"vecchia"``: for fields of `n x d` coordinates (`d >= 2`), the nearest-neighbour (Vecchia)
   approximation of the same Gaussian, O(n m³) time and O(n m) memory
   (:mod:`torchshm.likelihood.vecchia`); differentiable, CPU or CUDA; approximate, with the
-  error measured in ``docs/likelihood.md``.
+  error measured in ``docs/likelihood.md`` (tens to hundreds of nats at long lengths).
+- ``"fullscale"``: for fields, a low-rank part (the long range) plus Vecchia on the residual
+  (:mod:`torchshm.likelihood.fullscale`); differentiable, CPU or CUDA; approximate (error
+  small at long lengths, large at short ones with little noise: ``docs/likelihood.md``).
 
 ``method="auto"`` takes the state space from :data:`STATE_SPACE_FROM` points per load case
-(the measured crossover, ``docs/likelihood.md``), the Vecchia form for fields from
+(the measured crossover, ``docs/likelihood.md``), the full-scale form for fields from
 :data:`VECCHIA_FROM` points per load case, and refuses, with one line, a dense covariance that
 would not fit in memory.
 """
@@ -36,7 +39,7 @@ import torch
 from torch import Tensor
 
 from torchshm.kernels import Kernel
-from torchshm.likelihood import statespace, vecchia
+from torchshm.likelihood import fullscale, statespace, vecchia
 from torchshm.likelihood.cholesky import cholesky_with_jitter
 
 logger = logging.getLogger(__name__)
@@ -47,14 +50,19 @@ LOG_2PI = math.log(2.0 * math.pi)
 #: points per load case from which ``method="auto"`` uses the state-space form (measured)
 STATE_SPACE_FROM = 1000
 #: points per load case of a field (`n x d`, d >= 2) from which ``method="auto"`` uses the
-#: Vecchia form: below it the exact dense path costs at most a few seconds per evaluation
+#: full-scale (low rank + Vecchia) form: below it the exact dense path costs at most a few
+#: seconds per evaluation
 VECCHIA_FROM = 5000
+#: neighbours and pivots of the full-scale form of ``"auto"`` (``docs/likelihood.md``), capped
+#: by memory (:func:`torchshm.likelihood.fullscale.neighbours_for`, ``rank_for``)
+FULLSCALE_NEIGHBOURS = 30
+FULLSCALE_RANK = 512
 #: largest dense covariance batch [bytes] built and factorised at once when sampling
 SAMPLE_CHUNK_BYTES = 2**21
 #: share of the physical memory that dense covariances may take before they are refused
 DENSE_MEMORY_SHARE = 0.5
 #: messages given once per process
-_SAID = {"vecchia": False}
+_SAID = {"vecchia": False, "fullscale": False}
 
 
 def covariance(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: Tensor) -> Tensor:
@@ -75,20 +83,25 @@ def covariance(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: 
 def choose_method(
     kern: Kernel, n: int, method: str = "auto", noise_positive: bool = True, dim: int = 1
 ) -> str:
-    """``"diagonal"``, ``"dense"``, ``"state_space"`` or ``"vecchia"`` for `n` points per load case.
+    """``"diagonal"``, ``"dense"``, ``"state_space"``, ``"fullscale"`` or ``"vecchia"`` for `n`
+    points per load case.
 
     ``"auto"`` takes the state space only when the diagonal of Eq. (21) is known to be
     positive (``noise_positive``, i.e. ``sigma_e > 0``), which the state-space form needs at
     repeated positions, and only for 1-D positions (``dim == 1``); `n x d` coordinates
-    (``dim = d > 1``) are dense below :data:`VECCHIA_FROM` points and Vecchia from there.
+    (``dim = d > 1``) are dense below :data:`VECCHIA_FROM` points and full-scale (low rank +
+    Vecchia, :mod:`~torchshm.likelihood.fullscale`) from there; ``"vecchia"`` (plain nearest
+    neighbours, fast and far less accurate) only when asked for.
 
     Raises:
         ValueError: for an unknown method, ``"state_space"`` with a kernel that has none,
-            ``"vecchia"`` for 1-D positions, or a dense covariance larger than
+            ``"vecchia"`` or ``"fullscale"`` for 1-D positions, or a dense covariance larger than
             :data:`DENSE_MEMORY_SHARE` of the physical memory.
     """
-    if method not in ("auto", "dense", "state_space", "diagonal", "vecchia"):
-        raise ValueError(f"method must be 'auto', 'dense', 'state_space' or 'vecchia', got {method!r}")
+    if method not in ("auto", "dense", "state_space", "diagonal", "vecchia", "fullscale"):
+        raise ValueError(
+            f"method must be 'auto', 'dense', 'state_space', 'fullscale' or 'vecchia', got {method!r}"
+        )
     if kern.is_diagonal:
         return "diagonal"
     if method == "diagonal":
@@ -99,24 +112,28 @@ def choose_method(
         raise ValueError(f"{what}: no state-space form; use method='dense'")
     if method == "state_space" or (method == "auto" and markov and noise_positive and n >= STATE_SPACE_FROM):
         return "state_space"
-    if method == "vecchia" and dim == 1:
-        raise ValueError("method='vecchia' is for n x d coordinates (d >= 2); positions along a line "
-                         "use 'state_space' or 'dense'")
-    if method == "vecchia" or (method == "auto" and dim > 1 and n >= VECCHIA_FROM):
-        if method == "auto" and not _SAID["vecchia"]:
-            _SAID["vecchia"] = True
+    if method in ("vecchia", "fullscale") and dim == 1:
+        raise ValueError(f"method={method!r} is for n x d coordinates (d >= 2); positions along a "
+                         "line use 'state_space' or 'dense'")
+    if method == "vecchia":
+        return method
+    if method == "fullscale" or (method == "auto" and dim > 1 and n >= VECCHIA_FROM):
+        if method == "auto" and not _SAID["fullscale"]:
+            _SAID["fullscale"] = True
+            rank = fullscale.rank_for(n, FULLSCALE_RANK)
             logger.warning(
-                "%d points per load case of a %d-D field: the likelihood is the Vecchia approximation "
-                "(m = %d neighbours), whose error grows with the correlation length in pitches; see "
-                "docs/likelihood.md", n, dim, vecchia.neighbour_count(kern),
+                "%d points per load case of a %d-D field: the likelihood is the full-scale "
+                "approximation (rank %d + Vecchia with %d neighbours), not the exact density (its error: %s); "
+                "see docs/likelihood.md",
+                n, dim, rank, fullscale.neighbours_for(n, FULLSCALE_NEIGHBOURS), fullscale.error_note(n, rank),
             )
-        return "vecchia"
+        return "fullscale"
     need, have = 2 * 8 * n * n, _physical_memory()
     if need > DENSE_MEMORY_SHARE * have:
         instead = (
             "use 'exponential', 'matern32' or 'matern52' with sigma_e > 0 (exact O(n) state space) "
             "or fewer points (a coarser pitch)" if dim == 1 else
-            f"{dim}-D coordinates: use method='vecchia' (nearest-neighbour approximation) or fewer "
+            f"{dim}-D coordinates: use method='fullscale' (low rank + nearest neighbours) or fewer "
             "points (a coarser grid)"
         )
         raise ValueError(
@@ -145,7 +162,8 @@ class Eq21:
         sigma_a: `B` discrepancy scales [µε]; length: `B` correlation lengths [m].
         sigma_m: multiplicative model error (dimensionless); sigma_e: noise sd [µε]; each
             one number, or a `B` tensor (one per parameter vector, when they are inferred).
-        method: ``"auto"``, ``"dense"``, ``"state_space"`` or ``"vecchia"`` (see :func:`choose_method`).
+        method: ``"auto"``, ``"dense"``, ``"state_space"``, ``"fullscale"`` or ``"vecchia"``
+            (see :func:`choose_method`).
         extra: `B x L x n` variance [µε²] added to the diagonal, or None: e.g. an emulator's
             predictive variance of ``eta`` (the exact marginal over a Gaussian error of it).
     """
@@ -194,6 +212,10 @@ class Eq21:
             return statespace.log_density(resid, noise, x, self.kern, self.sigma_a, self.length)
         if self.method == "vecchia":
             return vecchia.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length)
+        if self.method == "fullscale":
+            n = self.x.shape[0]
+            return fullscale.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length,
+                                         fullscale.neighbours_for(n, FULLSCALE_NEIGHBOURS), FULLSCALE_RANK)
         if self._shared_noise:
             noise = noise[:, :1]  # identical for every load case: one factorisation
         chol, failed = cholesky_with_jitter(covariance(self.x, self.kern, self.sigma_a, self.length, noise))
@@ -230,7 +252,7 @@ class Eq21:
             out[..., order] += f + (sigma_e * e)[..., order]
             return out
         z2 = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
-        if self.method == "vecchia":
+        if self.method in ("vecchia", "fullscale"):  # draws: the Vecchia factor (docs/likelihood.md)
             if isinstance(self.sigma_e, Tensor) and self.sigma_e.ndim:  # inferred: one level per row
                 return out + torch.cat([vecchia.sample(x, self.kern, self.sigma_a[i:i + 1], self.length[i:i + 1],
                                                        float(self.sigma_e[i]) ** 2, z2[i:i + 1])

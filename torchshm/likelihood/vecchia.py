@@ -139,7 +139,8 @@ def _chunk(matrices: int, m: int) -> int:
 
 
 def _factor_blocks(
-    plan: neighbours.Plan, part: slice, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: Tensor
+    plan: neighbours.Plan, part: slice, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: Tensor,
+    factor: Tensor | None = None,
 ) -> tuple[Tensor, Tensor, Tensor, Tensor]:
     """Cholesky factors of the blocks ``C[rows, rows]`` of the plan's rows ``part``.
 
@@ -149,6 +150,8 @@ def _factor_blocks(
     Args:
         plan: the Vecchia plan; part: its rows (`c` of them).
         sigma_a: `B` scales [µε]; length: `B` lengths [m]; noise: `B x L x n` ordered diagonal [µε²].
+        factor: `B x n x r` low-rank factor ``F`` (Vecchia order) whose ``F Fᵀ`` is taken off the
+            kernel (the residual covariance of :mod:`torchshm.likelihood.fullscale`), or None.
 
     Returns:
         ``(chol, valid, safe, failed)``: `B x L x c x M x M` factors, `c x M` true where a slot
@@ -163,13 +166,19 @@ def _factor_blocks(
     dist = torch.as_tensor(plan.lower[part], device=device)  # c x T
     scale = sigma_a.square()[:, None, None]
     corr = scale * kern.correlation(dist, length[:, None, None])  # B x c x T
+    var = scale[..., None]  # B x 1 x 1 (x c x M below)
+    if factor is not None:  # residual of the low-rank part: K - F Fᵀ
+        rows_f = torch.where(valid[..., None], factor[:, safe], 0.0)  # B x c x M x r
+        gram = rows_f @ rows_f.mT  # B x c x M x M
+        corr = corr - gram[..., low[0], low[1]]
+        var = var - gram.diagonal(dim1=-2, dim2=-1)[:, None]  # B x 1 x c x M
     if part.start < size:  # only the first m rows have missing slots
         corr = torch.where(valid[:, low[0]] & valid[:, low[1]], corr, 0.0)
     cov = noise.new_zeros(*noise.shape[:2], rows.shape[0], size, size)
     cov[..., low[0], low[1]] = corr[:, None]
     if corr.requires_grad:  # Cholesky's backward splits the gradient over both triangles
         cov[..., low[1], low[0]] = corr[:, None]
-    diag = torch.where(valid, noise[..., safe] + scale[..., None], 1.0)  # B x L x c x M
+    diag = torch.where(valid, noise[..., safe] + var, 1.0)  # B x L x c x M
     cov = cov + torch.diag_embed(diag)
     chol, bad = cholesky_with_jitter(cov)
     return chol, valid, safe, bad.flatten(1).any(-1)
