@@ -4,7 +4,8 @@ The pages of :data:`tests.docs_blocks.DOC_FILES` are run in a copy of the reposi
 what they write stays out of it), with this checkout's ``torchshm`` and a ``.venv`` that is the
 test's interpreter. A page's Python blocks run in order in one namespace, in one process; each
 shell block runs with ``bash -e``. Markers (``<!-- docs-test: ... -->``, see
-:mod:`tests.docs_blocks`) skip a block with its reason or give it a setup.
+:mod:`tests.docs_blocks`) skip a block with its reason, give it a setup, or name the test that
+runs it (that test reads the block through the same collector; checked here).
 
 Budgets, kept small so that the whole test fits CI (stated here, applied only where the page
 gives none smaller): ``torchshm.identify`` runs VBMC with ``max_fun_evals`` <= 20 and
@@ -115,13 +116,17 @@ def _check(result: subprocess.CompletedProcess[str], what: str) -> None:
     assert result.returncode == 0, f"{what} failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
 
 
-PAGES = [p for p in DOC_FILES if any(not b.skip for b in collect(p))]
+def _runs_here(block: Block) -> bool:
+    return not block.skip and not block.run_by
+
+
+PAGES = [p for p in DOC_FILES if any(_runs_here(b) for b in collect(p))]
 
 
 @pytest.mark.parametrize("page", PAGES)
 def test_page_runs_as_written(page: str, sandbox: Path) -> None:
     wall, cpu = time.perf_counter(), _children_cpu()
-    blocks = [b for b in collect(page) if not b.skip]
+    blocks = [b for b in collect(page) if _runs_here(b)]
     python = [{"name": b.name, "setup": b.setup, "code": b.code} for b in blocks if b.is_python]
     if python:
         listing = sandbox / f".docs_test_{page.replace('/', '_')}.json"
@@ -150,6 +155,16 @@ def test_every_block_left_out_says_why() -> None:
     print(f"\ndocs test: {len(blocks) - len(left_out)} of {len(blocks)} blocks run; left out:\n{report}")
     assert all(b.skip.strip() for b in left_out)
     assert len(left_out) <= 23, report  # 49 of 72 run now: a block left out is one more to explain
+
+
+def test_blocks_run_by_another_test_are_read_by_it() -> None:
+    """A ``run-by`` block is run by the named test, which reads it through ``run_by(__file__)``."""
+    named = [b for b in all_blocks() if b.run_by]
+    assert named
+    for block in named:
+        test_file = REPO / block.run_by
+        assert test_file.is_file() and test_file.name.startswith("test_"), block.name
+        assert "run_by(__file__)" in test_file.read_text(), f"{block.run_by} does not read {block.name}"
 
 
 def test_markers_are_read() -> None:
