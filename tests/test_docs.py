@@ -70,17 +70,22 @@ def identify(problem, *args, **options):
     return _identify(problem, *args, **options)
 
 
-torchshm.identify = identify
-namespace = {"__name__": "__main__"}
-for block in json.load(open(sys.argv[1])):
-    print(f"### docs-test: {block['name']}", flush=True)
-    try:
-        exec(compile(block["setup"], block["name"] + " (setup)", "exec"), namespace)
-        exec(compile(block["code"], block["name"], "exec"), namespace)
-    except BaseException:
-        traceback.print_exc()
-        print(f"### docs-test: {block['name']} failed", flush=True)
-        sys.exit(1)
+def main() -> None:
+    torchshm.identify = identify
+    namespace = {"__name__": "__main__"}
+    for block in json.load(open(sys.argv[1])):
+        print(f"### docs-test: {block['name']}", flush=True)
+        try:
+            exec(compile(block["setup"], block["name"] + " (setup)", "exec"), namespace)
+            exec(compile(block["code"], block["name"], "exec"), namespace)
+        except BaseException:
+            traceback.print_exc()
+            print(f"### docs-test: {block['name']} failed", flush=True)
+            sys.exit(1)
+
+
+if __name__ == "__main__":  # worker processes started by spawn (Dask) import this file again
+    main()
 '''
 
 
