@@ -24,13 +24,15 @@ OUTPUTS = ("posterior.nc", "summary.csv", "corner.png", "trace.png", "predictive
 
 
 def readme_commands() -> list[list[str]]:
-    """The commands of the README block this file runs (section "Your own structure"), split as
-    the shell does, without the program."""
+    """The commands of the blocks this file runs (README.md, "Your own structure", and
+    conf/README.md, which shows the same two commands), split as the shell does, without the
+    program; run once for both."""
     blocks = run_by(__file__)
-    assert [b.path for b in blocks] == ["README.md"], blocks
-    lines = commands(blocks[0])
-    assert all(c[0] == ".venv/bin/torchshm-identify" for c in lines)
-    return [c[1:] for c in lines]
+    assert [b.path for b in blocks] == ["README.md", "conf/README.md"], blocks
+    readme, conf = (commands(b) for b in blocks)
+    assert readme == conf, "conf/README.md shows the README's two commands: keep them the same"
+    assert all(c[0] == ".venv/bin/torchshm-identify" for c in readme)
+    return [c[1:] for c in readme]
 
 
 def test_readme_commands_are_the_run_and_the_kernel_sweep() -> None:
