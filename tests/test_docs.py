@@ -125,15 +125,24 @@ def _runs_here(block: Block) -> bool:
     return not block.skip and not block.run_by
 
 
-PAGES = [p for p in DOC_FILES if any(_runs_here(b) for b in collect(p))]
+def _items() -> list[str]:
+    """One test item per page for its Python blocks (one namespace, in order) and one per shell
+    block (each on its own), so that pytest-xdist can spread a long page's parts."""
+    items = []
+    for page in DOC_FILES:
+        blocks = [b for b in collect(page) if _runs_here(b)]
+        items += [page] if any(b.is_python for b in blocks) else []
+        items += [b.name for b in blocks if not b.is_python]
+    return items
 
 
-@pytest.mark.parametrize("page", PAGES)
-def test_page_runs_as_written(page: str, sandbox: Path) -> None:
+@pytest.mark.parametrize("item", _items())
+def test_blocks_run_as_written(item: str, sandbox: Path) -> None:
     wall, cpu = time.perf_counter(), _children_cpu()
-    blocks = [b for b in collect(page) if _runs_here(b)]
-    python = [{"name": b.name, "setup": b.setup, "code": b.code} for b in blocks if b.is_python]
-    if python:
+    page, _, line = item.partition(":")
+    blocks = [b for b in collect(page) if _runs_here(b) and (b.name == item if line else b.is_python)]
+    if not line:
+        python = [{"name": b.name, "setup": b.setup, "code": b.code} for b in blocks]
         listing = sandbox / f".docs_test_{page.replace('/', '_')}.json"
         listing.write_text(json.dumps(python))
         result = subprocess.run([str(sandbox / ".venv" / "bin" / "python"), ".docs_test.py",
@@ -144,7 +153,7 @@ def test_page_runs_as_written(page: str, sandbox: Path) -> None:
         result = subprocess.run(["bash", "-e", "-c", f"{block.setup}\n{block.code}"], cwd=sandbox,
                                 env=_env(sandbox), capture_output=True, text=True, timeout=900)
         _check(result, block.name)
-    print(f"\ndocs test: {page}: {len(blocks)} blocks in {time.perf_counter() - wall:.0f} s wall, "
+    print(f"\ndocs test: {item}: {len(blocks)} blocks in {time.perf_counter() - wall:.0f} s wall, "
           f"{_children_cpu() - cpu:.0f} s CPU")
 
 
