@@ -11,7 +11,8 @@ Budgets, kept small so that the whole test fits CI (stated here, applied only wh
 gives none smaller): ``torchshm.identify`` runs VBMC with ``max_fun_evals`` <= 20 and
 ``n_samples`` <= 2000, emcee with ``n_steps`` <= 60; the emulator as written.
 ``torchshm-identify`` gets the overrides :data:`CLI_BUDGET` of its method, unless the command
-sets that key itself.
+sets that key itself. Every block runs with ``TORCHSHM_SMOKE=1``: the benchmark and study
+scripts then run with tiny sizes (a check that they run; each says so when it starts).
 """
 
 from __future__ import annotations
@@ -113,7 +114,7 @@ def sandbox(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def _env(root: Path) -> dict[str, str]:
     env = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"}
     env.update(PATH=f"{root / '.venv' / 'bin'}:{env.get('PATH', '')}", PYTHONPATH=str(root),
-               OMP_NUM_THREADS="1", MPLBACKEND="Agg")
+               OMP_NUM_THREADS="1", MPLBACKEND="Agg", TORCHSHM_SMOKE="1")
     return env
 
 
