@@ -143,6 +143,9 @@ def main() -> None:
     parser.add_argument("--rescore", type=Path, nargs="+", help="score the rows of earlier --out files "
                         "again (e.g. after making references; several: runs split by --methods) instead of running")
     args = parser.parse_args()
+    if os.environ.get("TORCHSHM_SMOKE") == "1":  # a check that it runs (docs test), no figures
+        args.cases, args.methods, args.quick, args.no_docs = args.cases[:1], args.methods[:1], True, True
+        print(f"TORCHSHM_SMOKE=1: --quick, {args.cases} with {args.methods} only, docs/benchmarks.md left as it is")
     torch.set_num_threads(1)
     if args.rescore:
         saved = [json.loads(f.read_text()) for f in args.rescore]
@@ -162,6 +165,8 @@ def main() -> None:
     else:
         start, load0 = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), os.getloadavg()
         rows = []
+        if args.out:
+            args.out.parent.mkdir(parents=True, exist_ok=True)  # e.g. runs/ on a fresh checkout
         for name in args.cases:
             rows += run_case(name, args.methods, args.quick, args.seed)
             if args.out:  # after every case, so that a long run can be scored while it goes on

@@ -53,6 +53,9 @@ import torchshm
 SIGMA_M, SIGMA_E, SIGMA_A, LENGTH, BATCH = 0.05, 0.1, 0.9, 2.0, 40
 
 
+SMOKE = os.environ.get("TORCHSHM_SMOKE") == "1"  # tiny sizes: a check that it runs (docs test), no figures
+
+
 def naive_scipy(y: np.ndarray, eta: np.ndarray, x: np.ndarray) -> float:
     """(a) Full block-diagonal covariance in numpy, density by scipy."""
     r = np.sqrt(3.0) * np.abs(x[:, None] - x[None, :]) / LENGTH
@@ -275,6 +278,11 @@ def main() -> None:
         one_size(args.one_size, args.seed)
         return
     print(f"uptime: {os.getloadavg()} (1, 5, 15 min load averages)")
+    if SMOKE:
+        args.repeats, args.slow_repeats = min(args.repeats, 2), 1
+        print("TORCHSHM_SMOKE=1: size B only, 2 repeats, a check that the script runs, not a benchmark")
+        print(bench_size("B", 1, args))
+        return
     if args.only_scaling:
         scaling(args)
         return

@@ -8,6 +8,7 @@ Usage: ``python scripts/bench_model.py [--repeats N]``
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import time
 from typing import Callable
@@ -16,6 +17,9 @@ import torch
 
 from torchshm.casestudy import bridge705
 from torchshm.casestudy.model import _operators
+
+
+SMOKE = os.environ.get("TORCHSHM_SMOKE") == "1"  # tiny sizes: a check that it runs (docs test), no figures
 
 
 def median_time(call: Callable[[], object], repeats: int) -> float:
@@ -38,6 +42,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=200)
     args = parser.parse_args()
+    if SMOKE:
+        args.repeats = min(args.repeats, 3)
+        print("TORCHSHM_SMOKE=1: 3 repeats, a check that the script runs, not a benchmark")
 
     model = bridge705()
     one = torch.tensor([35.0, 11.5])

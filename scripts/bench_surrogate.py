@@ -9,6 +9,7 @@ torch uses (set OMP_NUM_THREADS to compare).
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import time
 from typing import Callable
@@ -17,6 +18,9 @@ import torch
 
 from torchshm.casestudy import PRIOR_BOX, bridge705_surrogate
 from torchshm.surrogate import uniform_in_box
+
+
+SMOKE = os.environ.get("TORCHSHM_SMOKE") == "1"  # tiny sizes: a check that it runs (docs test), no figures
 
 
 def timed(action: Callable[[], object], repeats: int) -> list[float]:
@@ -40,6 +44,9 @@ def main() -> None:
     parser.add_argument("--batch", type=int, default=1000)
     parser.add_argument("--repeats", type=int, default=7)
     args = parser.parse_args()
+    if SMOKE:
+        args.batch, args.repeats = min(args.batch, 50), min(args.repeats, 2)
+        print("TORCHSHM_SMOKE=1: batch 50, 2 repeats, a check that the script runs, not a benchmark")
     print(f"torch {torch.__version__}, {torch.get_num_threads()} threads")
     report("load bridge705_surrogate()", timed(bridge705_surrogate, args.repeats))
     sur = bridge705_surrogate()

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import time
@@ -35,6 +36,7 @@ from benchmarks.reference import direct_log_joint, find_modes, importance, run_c
 
 OUT = ROOT / "benchmarks" / "references"
 QUANTILES = (0.025, 0.16, 0.5, 0.84, 0.975)
+SMOKE = os.environ.get("TORCHSHM_SMOKE") == "1"  # tiny sizes: a check that it runs (docs test), no figures
 
 
 def weighted_summary(samples: np.ndarray, weights: np.ndarray) -> dict[str, list]:
@@ -52,7 +54,7 @@ def weighted_summary(samples: np.ndarray, weights: np.ndarray) -> dict[str, list
             "corr": np.round(cov / np.outer(sd, sd), 3).tolist()}
 
 
-def reference(case: Case, seed: int = 1, n_importance: int = 20000) -> dict:
+def reference(case: Case, seed: int = 1, n_importance: int = 20000, max_steps: int = 20000) -> dict:
     """The reference of one case (JSON-ready)."""
     t0 = time.process_time()
     problem = make_problem(case)
@@ -72,7 +74,8 @@ def reference(case: Case, seed: int = 1, n_importance: int = 20000) -> dict:
     starts = np.vstack([truth[None], box, *[e[None] for e in extra]])
     modes, optima = find_modes(log_joint, np.asarray(problem.hard_bounds), scale, starts)
     t_map = time.process_time() - t0
-    chains = [run_chain(log_joint, m, scale, np.asarray(problem.hard_bounds), seed + 10 * i) for i, m in enumerate(modes)]
+    chains = [run_chain(log_joint, m, scale, np.asarray(problem.hard_bounds), seed + 10 * i, max_steps=max_steps)
+              for i, m in enumerate(modes)]
     samples = [c.pop("samples") for c in chains]
     imp = importance(log_joint, samples, n_importance, seed)
     imp.pop("draws"), imp.pop("weights")
@@ -124,9 +127,14 @@ def main() -> None:
         for name in (list(CASES) if args.all else args.case):
             rehash(name)
         return
-    for name in (list(CASES) if args.all else args.case):
-        ref = reference(CASES[name], args.seed)
-        (OUT / f"{name}.json").write_text(json.dumps(ref, indent=1) + "\n")
+    names, out, budget = (list(CASES) if args.all else args.case), OUT, {}
+    if SMOKE:  # written beside the references, never over them
+        names, out, budget = names[:1], OUT / "smoke", {"n_importance": 500, "max_steps": 500}
+        out.mkdir(exist_ok=True)
+        print(f"TORCHSHM_SMOKE=1: {names} only, short chains, into {out}: a check that the script runs")
+    for name in names:
+        ref = reference(CASES[name], args.seed, **budget)
+        (out / f"{name}.json").write_text(json.dumps(ref, indent=1) + "\n")
         c = ref["chains"]
         print(f"{name}: modes {len(c)}, tau max {max(max(x['tau']) for x in c):.0f}, steps {c[0]['steps']}, "
               f"n/tau {min(x['n_over_tau'] for x in c):.0f}, log Z {ref['importance']['log_evidence']:.2f} "

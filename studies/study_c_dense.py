@@ -14,6 +14,7 @@ position, wall times) and ``fig.png`` (posterior intervals against the pitch) in
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from pathlib import Path
 
@@ -108,6 +109,10 @@ def main() -> None:
     parser.add_argument("--max-fun-evals", type=int, default=150)
     parser.add_argument("--n-predict", type=int, default=1000)
     args = parser.parse_args()
+    if os.environ.get("TORCHSHM_SMOKE") == "1":  # a check that it runs (docs test), not the study
+        args.pitches, args.max_fun_evals, args.n_predict = args.pitches[:1], min(args.max_fun_evals, 20), 100
+        args.out = args.out.with_name(args.out.name + "_smoke")
+        print(f"TORCHSHM_SMOKE=1: pitch {args.pitches[0]} only, VBMC {args.max_fun_evals} evaluations, into {args.out}")
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
     for pitch in args.pitches:

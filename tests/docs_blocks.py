@@ -8,12 +8,17 @@ rendered page, visible to whoever edits the block) can say how:
     the block is not run (counted and listed with its reason);
 ``<!-- docs-test: setup`` ... ``-->``
     the lines between are run just before the block (Python or shell, as the block): what the
-    page leaves to the reader, e.g. a measurement file of their own.
+    page leaves to the reader, e.g. a measurement file of their own;
+``<!-- docs-test: run-by: tests/<dir>/test_<name>.py -->``
+    the block is run by that test, which reads it here (``run_by(__file__)``) and checks what it
+    writes (with a small budget appended to its commands); the docs test does not run it again
+    and checks that the named test reads it.
 """
 
 from __future__ import annotations
 
 import re
+import shlex
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,14 +30,14 @@ DOC_FILES = ["README.md", *sorted(str(p.relative_to(REPO)) for p in (REPO / "doc
 PYTHON = ("python",)
 SHELL = ("bash", "sh", "shell", "console")
 _FENCE = re.compile(r"^(\s*)```(\w*)")
-_MARKER = re.compile(r"<!--\s*docs-test:\s*(skip|setup)\s*:?\s*(.*?)\s*-->\s*$", re.S)
+_MARKER = re.compile(r"<!--\s*docs-test:\s*(skip|setup|run-by)\s*:?\s*(.*?)\s*-->\s*$", re.S)
 
 
 @dataclass
 class Block:
     """One fenced block of a page: ``path`` (from the repository root), ``line`` (1-based, of
     the opening fence), ``lang`` (python or a shell), ``code``, and its marker's ``setup`` and
-    ``skip`` (the reason), if any."""
+    ``skip`` (the reason), or the test that runs it (``run_by``), if any."""
 
     path: str
     line: int
@@ -40,6 +45,7 @@ class Block:
     code: str
     setup: str = ""
     skip: str | None = None
+    run_by: str | None = None
 
     @property
     def name(self) -> str:
@@ -81,6 +87,8 @@ def _read_marker(block: Block, before: list[str]) -> None:
     kind, text = marker.groups()
     if kind == "skip":
         block.skip = " ".join(text.split())
+    elif kind == "run-by":
+        block.run_by = text.strip()
     else:
         block.setup = text
 
@@ -88,3 +96,16 @@ def _read_marker(block: Block, before: list[str]) -> None:
 def all_blocks() -> list[Block]:
     """Every Python and shell block of :data:`DOC_FILES`."""
     return [b for path in DOC_FILES for b in collect(path)]
+
+
+def run_by(test_file: str | Path) -> list[Block]:
+    """The blocks whose marker names ``test_file`` (a test module's ``__file__``) as their runner."""
+    name = Path(test_file).resolve().relative_to(REPO).as_posix()
+    return [b for b in all_blocks() if b.run_by == name]
+
+
+def commands(block: Block) -> list[list[str]]:
+    """The commands of a shell block, one per line (``\\`` continues a line), split as the shell
+    does."""
+    text = block.code.replace("\\\n", " ")
+    return [shlex.split(line) for line in text.splitlines() if line.strip()]

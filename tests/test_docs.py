@@ -4,13 +4,15 @@ The pages of :data:`tests.docs_blocks.DOC_FILES` are run in a copy of the reposi
 what they write stays out of it), with this checkout's ``torchshm`` and a ``.venv`` that is the
 test's interpreter. A page's Python blocks run in order in one namespace, in one process; each
 shell block runs with ``bash -e``. Markers (``<!-- docs-test: ... -->``, see
-:mod:`tests.docs_blocks`) skip a block with its reason or give it a setup.
+:mod:`tests.docs_blocks`) skip a block with its reason, give it a setup, or name the test that
+runs it (that test reads the block through the same collector; checked here).
 
 Budgets, kept small so that the whole test fits CI (stated here, applied only where the page
 gives none smaller): ``torchshm.identify`` runs VBMC with ``max_fun_evals`` <= 20 and
 ``n_samples`` <= 2000, emcee with ``n_steps`` <= 60; the emulator as written.
 ``torchshm-identify`` gets the overrides :data:`CLI_BUDGET` of its method, unless the command
-sets that key itself.
+sets that key itself. Every block runs with ``TORCHSHM_SMOKE=1``: the benchmark and study
+scripts then run with tiny sizes (a check that they run; each says so when it starts).
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ pytestmark = pytest.mark.slow
 CLI_BUDGET = {
     "vbmc": ["method.max_fun_evals=20", "method.n_samples=2000"],
     "emcee": ["method.n_steps=60", "method.n_walkers=8"],
-    "emulator": ["method.max_model_evaluations=12"],
+    "emulator": ["method.max_model_evaluations=12", "method.n_steps=60", "method.final_steps=60"],
     "": ["predict.n=200"],
 }
 
@@ -69,17 +71,22 @@ def identify(problem, *args, **options):
     return _identify(problem, *args, **options)
 
 
-torchshm.identify = identify
-namespace = {"__name__": "__main__"}
-for block in json.load(open(sys.argv[1])):
-    print(f"### docs-test: {block['name']}", flush=True)
-    try:
-        exec(compile(block["setup"], block["name"] + " (setup)", "exec"), namespace)
-        exec(compile(block["code"], block["name"], "exec"), namespace)
-    except BaseException:
-        traceback.print_exc()
-        print(f"### docs-test: {block['name']} failed", flush=True)
-        sys.exit(1)
+def main() -> None:
+    torchshm.identify = identify
+    namespace = {"__name__": "__main__"}
+    for block in json.load(open(sys.argv[1])):
+        print(f"### docs-test: {block['name']}", flush=True)
+        try:
+            exec(compile(block["setup"], block["name"] + " (setup)", "exec"), namespace)
+            exec(compile(block["code"], block["name"], "exec"), namespace)
+        except BaseException:
+            traceback.print_exc()
+            print(f"### docs-test: {block['name']} failed", flush=True)
+            sys.exit(1)
+
+
+if __name__ == "__main__":  # worker processes started by spawn (Dask) import this file again
+    main()
 '''
 
 
@@ -107,7 +114,7 @@ def sandbox(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def _env(root: Path) -> dict[str, str]:
     env = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"}
     env.update(PATH=f"{root / '.venv' / 'bin'}:{env.get('PATH', '')}", PYTHONPATH=str(root),
-               OMP_NUM_THREADS="1", MPLBACKEND="Agg")
+               OMP_NUM_THREADS="1", MPLBACKEND="Agg", TORCHSHM_SMOKE="1")
     return env
 
 
@@ -115,15 +122,28 @@ def _check(result: subprocess.CompletedProcess[str], what: str) -> None:
     assert result.returncode == 0, f"{what} failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
 
 
-PAGES = [p for p in DOC_FILES if any(not b.skip for b in collect(p))]
+def _runs_here(block: Block) -> bool:
+    return not block.skip and not block.run_by
 
 
-@pytest.mark.parametrize("page", PAGES)
-def test_page_runs_as_written(page: str, sandbox: Path) -> None:
+def _items() -> list[str]:
+    """One test item per page for its Python blocks (one namespace, in order) and one per shell
+    block (each on its own), so that pytest-xdist can spread a long page's parts."""
+    items = []
+    for page in DOC_FILES:
+        blocks = [b for b in collect(page) if _runs_here(b)]
+        items += [page] if any(b.is_python for b in blocks) else []
+        items += [b.name for b in blocks if not b.is_python]
+    return items
+
+
+@pytest.mark.parametrize("item", _items())
+def test_blocks_run_as_written(item: str, sandbox: Path) -> None:
     wall, cpu = time.perf_counter(), _children_cpu()
-    blocks = [b for b in collect(page) if not b.skip]
-    python = [{"name": b.name, "setup": b.setup, "code": b.code} for b in blocks if b.is_python]
-    if python:
+    page, _, line = item.partition(":")
+    blocks = [b for b in collect(page) if _runs_here(b) and (b.name == item if line else b.is_python)]
+    if not line:
+        python = [{"name": b.name, "setup": b.setup, "code": b.code} for b in blocks]
         listing = sandbox / f".docs_test_{page.replace('/', '_')}.json"
         listing.write_text(json.dumps(python))
         result = subprocess.run([str(sandbox / ".venv" / "bin" / "python"), ".docs_test.py",
@@ -134,7 +154,7 @@ def test_page_runs_as_written(page: str, sandbox: Path) -> None:
         result = subprocess.run(["bash", "-e", "-c", f"{block.setup}\n{block.code}"], cwd=sandbox,
                                 env=_env(sandbox), capture_output=True, text=True, timeout=900)
         _check(result, block.name)
-    print(f"\ndocs test: {page}: {len(blocks)} blocks in {time.perf_counter() - wall:.0f} s wall, "
+    print(f"\ndocs test: {item}: {len(blocks)} blocks in {time.perf_counter() - wall:.0f} s wall, "
           f"{_children_cpu() - cpu:.0f} s CPU")
 
 
@@ -149,7 +169,17 @@ def test_every_block_left_out_says_why() -> None:
     report = "\n".join(f"  {b.name} ({b.lang}): {b.skip}" for b in left_out)
     print(f"\ndocs test: {len(blocks) - len(left_out)} of {len(blocks)} blocks run; left out:\n{report}")
     assert all(b.skip.strip() for b in left_out)
-    assert len(left_out) <= 23, report  # 49 of 72 run now: a block left out is one more to explain
+    assert len(left_out) <= 4, report  # 68 of 72 run now: a block left out is one more to explain
+
+
+def test_blocks_run_by_another_test_are_read_by_it() -> None:
+    """A ``run-by`` block is run by the named test, which reads it through ``run_by(__file__)``."""
+    named = [b for b in all_blocks() if b.run_by]
+    assert named
+    for block in named:
+        test_file = REPO / block.run_by
+        assert test_file.is_file() and test_file.name.startswith("test_"), block.name
+        assert "run_by(__file__)" in test_file.read_text(), f"{block.run_by} does not read {block.name}"
 
 
 def test_markers_are_read() -> None:

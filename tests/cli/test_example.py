@@ -1,19 +1,19 @@
 """The README's "Your own structure" commands, as written, on the two-span beam example.
 
-Both commands are read from README.md and run from the repository root; only a small budget
-and the output folder are appended (slow: about a minute per job).
+Both commands are the README block marked ``run-by`` this file, read through the docs test's
+collector (``tests.docs_blocks``) and run from the repository root; only a small budget and the
+output folder are appended (slow: about a minute per job).
 """
 
 from __future__ import annotations
 
 import csv
-import re
-import shlex
 from pathlib import Path
 
 import pytest
 
 from tests.cli.conftest import CONSOLE_SCRIPT, REPO, run_cli
+from tests.docs_blocks import commands, run_by
 
 pytestmark = pytest.mark.slow
 
@@ -24,14 +24,15 @@ OUTPUTS = ("posterior.nc", "summary.csv", "corner.png", "trace.png", "predictive
 
 
 def readme_commands() -> list[list[str]]:
-    """The commands of the README section "Your own structure", split as the shell does."""
-    text = (REPO / "README.md").read_text()
-    section = text.split("## Your own structure", 1)[1].split("\n## ", 1)[0]
-    block = re.search(r"```bash\n(.*?)```", section, re.S)
-    assert block, "no bash block in 'Your own structure'"
-    commands = [shlex.split(line) for line in block.group(1).splitlines() if line.strip()]
-    assert all(c[0] == ".venv/bin/torchshm-identify" for c in commands)
-    return [c[1:] for c in commands]
+    """The commands of the blocks this file runs (README.md, "Your own structure", and
+    conf/README.md, which shows the same two commands), split as the shell does, without the
+    program; run once for both."""
+    blocks = run_by(__file__)
+    assert [b.path for b in blocks] == ["README.md", "conf/README.md"], blocks
+    readme, conf = (commands(b) for b in blocks)
+    assert readme == conf, "conf/README.md shows the README's two commands: keep them the same"
+    assert all(c[0] == ".venv/bin/torchshm-identify" for c in readme)
+    return [c[1:] for c in readme]
 
 
 def test_readme_commands_are_the_run_and_the_kernel_sweep() -> None:

@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import csv
 import json
-import re
-import shlex
 from pathlib import Path
 
 import pytest
 
 from tests.cli.conftest import CONSOLE_SCRIPT, REPO, run_cli
+from tests.docs_blocks import commands, run_by
 
 pytestmark = pytest.mark.slow
 
@@ -20,10 +19,11 @@ TRUTH = {"E": 32.0, "log10_k": 6.5, "sigma_a": 4.0, "length": 0.3}
 
 
 def readme_command() -> list[str]:
-    """The one command of the example's README, split as the shell does."""
-    block = re.search(r"```bash\n(.*?)```", (EXAMPLE / "README.md").read_text(), re.S)
-    assert block, "no bash block in examples/plate_dic/README.md"
-    lines = [shlex.split(line) for line in block.group(1).splitlines() if line.strip()]
+    """The one command of the example's README (its block marked ``run-by`` this file, read by
+    the docs test's collector), split as the shell does."""
+    blocks = run_by(__file__)
+    assert [b.path for b in blocks] == ["examples/plate_dic/README.md"], blocks
+    lines = commands(blocks[0])
     assert len(lines) == 1 and lines[0][0] == ".venv/bin/torchshm-identify"
     return lines[0][1:]
 

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import json
 import os
-import re
-import shlex
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+
+from tests.docs_blocks import commands, run_by
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / "examples" / "plate_dic_camera"
@@ -22,10 +22,11 @@ pytestmark = pytest.mark.slow
 
 
 def readme_commands() -> list[list[str]]:
-    """The commands of the README's first bash block, split as the shell does."""
-    block = re.search(r"```bash\n(.*?)```", (EXAMPLE / "README.md").read_text(), re.S)
-    assert block, "no bash block in examples/plate_dic_camera/README.md"
-    return [shlex.split(line) for line in block.group(1).splitlines() if line.strip()]
+    """The commands of the README block marked ``run-by`` this file (read by the docs test's
+    collector), split as the shell does."""
+    blocks = run_by(__file__)
+    assert [b.path for b in blocks] == ["examples/plate_dic_camera/README.md"], blocks
+    return commands(blocks[0])
 
 
 def run(args: list[str]) -> subprocess.CompletedProcess[str]:

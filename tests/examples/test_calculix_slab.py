@@ -5,14 +5,13 @@ from __future__ import annotations
 
 import csv
 import json
-import re
-import shlex
 import shutil
 from pathlib import Path
 
 import pytest
 
 from tests.cli.conftest import CONSOLE_SCRIPT, REPO, run_cli
+from tests.docs_blocks import Block, commands, run_by
 
 EXAMPLE = REPO / "examples" / "calculix_slab"
 #: a smoke budget: the initial design of 5 runs, short chains, every 1 m of the fibre (the README
@@ -21,11 +20,11 @@ BUDGET = ["method=emulator", "method.max_model_evaluations=5", "method.n_steps=2
           "method.final_steps=30", "predict.n=100", "data.resolution=1"]
 
 
-def readme_command(example: Path) -> list[str]:
-    """The one ``torchshm-identify`` command of an example's README, split as the shell does."""
-    block = re.search(r"```bash\n(.*?)```", (example / "README.md").read_text(), re.S)
-    assert block, f"no bash block in {example / 'README.md'}"
-    lines = [shlex.split(line) for line in block.group(1).splitlines() if line.strip()]
+def readme_command(example: Path, blocks: list[Block]) -> list[str]:
+    """The one ``torchshm-identify`` command of an example's README, from ``blocks``: those
+    marked ``run-by`` the calling test file (``run_by(__file__)``), split as the shell does."""
+    assert [b.path for b in blocks] == [(example / "README.md").relative_to(REPO).as_posix()], blocks
+    lines = commands(blocks[0])
     assert len(lines) == 1 and lines[0][0] == ".venv/bin/torchshm-identify"
     assert not any(arg.startswith("method=") for arg in lines[0]), "the README runs the default method"
     return lines[0][1:]
@@ -62,7 +61,7 @@ def test_config_builds_the_python_model(monkeypatch: pytest.MonkeyPatch) -> None
 def test_readme_command_runs_calculix_and_keeps_no_successful_folder(tmp_path: Path) -> None:
     assert shutil.which("ccx"), "CalculiX is not installed: bash scripts/install.sh (as root) or apt-get install calculix-ccx"
     assert CONSOLE_SCRIPT.is_file()
-    args = [*readme_command(EXAMPLE), *BUDGET, f"store={tmp_path / 'store.sqlite'}",
+    args = [*readme_command(EXAMPLE, run_by(__file__)), *BUDGET, f"store={tmp_path / 'store.sqlite'}",
             f"model.workdir={tmp_path / 'fe'}", f"hydra.run.dir={tmp_path / 'run'}"]
     result = run_cli(args, REPO, env={"PYTHONPATH": str(REPO)})
     assert result.returncode == 0, result.stderr[-2000:]

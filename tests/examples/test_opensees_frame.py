@@ -12,6 +12,7 @@ import pytest
 import torch
 
 from tests.cli.conftest import CONSOLE_SCRIPT, REPO, run_cli
+from tests.docs_blocks import run_by
 from tests.examples.test_calculix_slab import readme_command
 
 sys.path.insert(0, str(REPO))
@@ -55,7 +56,7 @@ def test_truth_json_matches_the_campaign_file() -> None:
 @pytest.mark.slow
 def test_readme_command_runs_in_joblib_workers(tmp_path: Path) -> None:
     assert CONSOLE_SCRIPT.is_file()
-    args = readme_command(EXAMPLE)
+    args = readme_command(EXAMPLE, run_by(__file__))
     assert "executor=joblib" in args and "executor.n_jobs=2" in args
     args += [*BUDGET, f"store={tmp_path / 'store.sqlite'}", f"hydra.run.dir={tmp_path / 'run'}"]
     result = run_cli(args, REPO, env={"PYTHONPATH": str(REPO)})

@@ -72,6 +72,12 @@ OPTION_REFUSALS = [
     ("emulator", {"emulator_kernel": "matern32"}, "emulator_kernel (method.emulator_kernel) must be one of"),
     ("emulator", {"n_jobs": 0}, "n_jobs (method.n_jobs) must be a non-zero integer"),
     ("emulator", {"executor": Executor()}, "executor must be a submitit executor"),
+    ("emcee", {"window": 0}, "window (method.window) must be an integer >= 1"),
+    ("emulator", {"final_steps": 0}, "final_steps (method.final_steps) must be an integer >= 1"),
+    ("emulator", {"n_evidence": -5}, "n_evidence (method.n_evidence) must be an integer >= 1"),
+    ("emulator", {"n_steps": 0}, "n_steps (method.n_steps) must be an integer >= 1"),
+    ("vbmc", {"max_iter": 0}, "max_iter (method.max_iter) must be an integer >= 1"),
+    ("vbmc", {"fun_eval_start": 1.5}, "fun_eval_start (method.fun_eval_start) must be an integer >= 1"),
 ]
 
 
