@@ -14,7 +14,7 @@ import torch
 
 import torchshm
 from torchshm.forward import read_params, write_strains
-from torchshm.physics.bridge705 import Bridge705Config
+from torchshm.casestudy import Bridge705Config
 
 
 def main() -> None:
