@@ -118,10 +118,10 @@ def run_gpry(problem: Any, quick: bool, seed: int) -> dict[str, Any]:
         v = float(np.asarray(problem.log_joint(np.asarray(x, dtype=float)[None]))[0])
         return v if np.isfinite(v) else -np.inf
 
-    options: dict[str, Any] = {"n_points_per_acq": WORKERS, "max_total": GPRY_MAX_TOTAL}
+    options: dict[str, Any] = {"n_points_per_acq": WORKERS, "max_initial": "10d", "max_total": GPRY_MAX_TOTAL}
     mc = GPRY_FINAL_MC
     if quick:
-        options.update(n_initial=6, max_initial=16, max_total=16)
+        options.update(n_initial=6, max_initial=11, max_total=11)  # one batch after the initial design
         mc = {"nested": {"nlive": "10d", "num_repeats": "2d"}}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
