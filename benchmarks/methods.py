@@ -118,7 +118,7 @@ def run_gpry(problem: Any, quick: bool, seed: int) -> dict[str, Any]:
         v = float(np.asarray(problem.log_joint(np.asarray(x, dtype=float)[None]))[0])
         return v if np.isfinite(v) else -np.inf
 
-    options: dict[str, Any] = {"n_points_per_acq": WORKERS, "max_initial": "10d", "max_total": GPRY_MAX_TOTAL}
+    options: dict[str, Any] = {"n_points_per_acq": WORKERS, "max_initial": GPRY_MAX_TOTAL, "max_total": GPRY_MAX_TOTAL}
     mc = GPRY_FINAL_MC
     if quick:
         options.update(n_initial=6, max_initial=11, max_total=11)  # one batch after the initial design
