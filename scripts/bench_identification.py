@@ -8,9 +8,12 @@ runs, sequential rounds with 5 concurrent workers, the wall time those rounds ta
 the method's own CPU time (model time excluded), its convergence flag and any error. The table
 replaces the section between the ``suite`` markers of docs/benchmarks.md.
 
+GPry runs on the cases of ``--gpry-cases`` only (default: the 2- and 4-parameter ones, minutes of
+its own CPU each). ``--jobs 2`` runs the (case, method) pairs two at a time in fresh processes.
+
 Usage (from the repository root)::
 
-    OMP_NUM_THREADS=1 python scripts/bench_identification.py
+    OMP_NUM_THREADS=1 python scripts/bench_identification.py --jobs 2 --out runs/suite.json
     python scripts/bench_identification.py --cases beam2_saturating --methods emulator --quick --no-docs
 """
 
