@@ -140,8 +140,9 @@ def table(rows: list[dict], header: str) -> str:
                      f"{statistics.median(r['own_cpu_s'] for r in mine):.1f} |")
     emu = [r for r in rows if r["method"] == "emulator" and not r["error"]]
     groups = {p: [r["runs"] for r in emu if r["P"] == p] for p in sorted({r["P"] for r in emu})}
-    lines += ["", "Emulator, median model runs per number of physical parameters: " + ", ".join(
-        f"P = {p}: {statistics.median(v):.0f} ({len(v)} cases)" for p, v in groups.items()) + "."]
+    if groups:
+        lines += ["", "Emulator, median model runs per number of physical parameters: " + ", ".join(
+            f"P = {p}: {statistics.median(v):.0f} ({len(v)} cases)" for p, v in groups.items()) + "."]
     with_gpry = {r["case"] for r in rows if r["method"] == "gpry"}
     without = [c for c in dict.fromkeys(r["case"] for r in rows) if c not in with_gpry]
     if with_gpry and without:
