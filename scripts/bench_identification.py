@@ -8,9 +8,12 @@ runs, sequential rounds with 5 concurrent workers, the wall time those rounds ta
 the method's own CPU time (model time excluded), its convergence flag and any error. The table
 replaces the section between the ``suite`` markers of docs/benchmarks.md.
 
+GPry runs on the cases of ``--gpry-cases`` only (default: the 2- and 4-parameter ones, minutes of
+its own CPU each). ``--jobs 2`` runs the (case, method) pairs two at a time in fresh processes.
+
 Usage (from the repository root)::
 
-    OMP_NUM_THREADS=1 python scripts/bench_identification.py
+    OMP_NUM_THREADS=1 python scripts/bench_identification.py --jobs 2 --out runs/suite.json
     python scripts/bench_identification.py --cases beam2_saturating --methods emulator --quick --no-docs
 """
 
@@ -18,11 +21,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import os
 import platform
 import statistics
 import sys
 import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -41,6 +47,8 @@ REFS = ROOT / "benchmarks" / "references"
 DOC = ROOT / "docs" / "benchmarks.md"
 BEGIN, END = "<!-- suite:begin -->", "<!-- suite:end -->"
 METHODS = ("emulator", "vbmc", "gpry")
+#: the cases GPry runs on by default: the 2- and 4-parameter ones (see docs/benchmarks.md)
+GPRY_CASES = [name for name, case in CASES.items() if case.n_physical in (2, 4)]
 MODEL_MINUTES = 10.0
 
 
@@ -59,28 +67,44 @@ def score(row: dict, ref: dict) -> dict:
     return out
 
 
-def run_case(name: str, methods: list[str], quick: bool, seed: int) -> list[dict]:
-    """Rows of one case, one per method."""
+def run_task(task: tuple[str, str, bool, int]) -> dict:
+    """One row: ``method`` on case ``name`` (``quick``, ``seed``), on one torch thread."""
+    torch.set_num_threads(1)
+    name, method, quick, seed = task
     case = CASES[name]
     path = REFS / f"{name}.json"
     ref = json.loads(path.read_text()) if path.exists() else None
     stale = ref is not None and ref["case_hash"] != case_hash(case)
-    rows = []
-    for method in methods:
-        problem = make_problem(case, model=TimedModel(case.model()))
-        t0 = time.perf_counter()
-        row = run_method(problem, method, quick, seed)
-        row["wall_s"] = time.perf_counter() - t0
-        row["sim_wall_h"] = row["rounds"] * MODEL_MINUTES / 60 + row["own_cpu_s"] / 3600
-        row.update(case=name, method=method, P=case.n_physical, D=len(problem.names), case_hash=case_hash(case),
-                   reference="stale" if stale else ("missing" if ref is None else "ok"))
-        if ref is not None and not stale:
-            row.update(score(row, ref))
-        for key in ("mean", "sd"):
-            if key in row:
-                row[key] = np.asarray(row[key]).tolist()
-        print(json.dumps({k: v for k, v in row.items() if k not in ("mean", "sd")}), flush=True)
-        rows.append(row)
+    problem = make_problem(case, model=TimedModel(case.model()))
+    t0 = time.perf_counter()
+    row = run_method(problem, method, quick, seed)
+    row["wall_s"] = time.perf_counter() - t0
+    row["sim_wall_h"] = row["rounds"] * MODEL_MINUTES / 60 + row["own_cpu_s"] / 3600
+    row.update(case=name, method=method, P=case.n_physical, D=len(problem.names), case_hash=case_hash(case),
+               reference="stale" if stale else ("missing" if ref is None else "ok"))
+    if ref is not None and not stale:
+        row.update(score(row, ref))
+    for key in ("mean", "sd"):
+        if key in row:
+            row[key] = np.asarray(row[key]).tolist()
+    print(json.dumps({k: v for k, v in row.items() if k not in ("mean", "sd")}), flush=True)
+    return row
+
+
+def run_all(tasks: list[tuple[str, str, bool, int]], jobs: int, save: Callable[[list[dict]], None]) -> list[dict]:
+    """Rows of every task, ``jobs`` at a time, each in a fresh process (1 torch thread, so that
+    CPU times stay comparable); ``save`` gets the rows after every task."""
+    rows: list[dict] = []
+    if jobs <= 1:
+        for task in tasks:
+            rows.append(run_task(task))
+            save(rows)
+        return rows
+    pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"), max_tasks_per_child=1)
+    with pool:
+        for future in as_completed([pool.submit(run_task, t) for t in tasks]):
+            rows.append(future.result())
+            save(rows)
     return rows
 
 
@@ -117,8 +141,15 @@ def table(rows: list[dict], header: str) -> str:
                      f"{statistics.median(r['own_cpu_s'] for r in mine):.1f} |")
     emu = [r for r in rows if r["method"] == "emulator" and not r["error"]]
     groups = {p: [r["runs"] for r in emu if r["P"] == p] for p in sorted({r["P"] for r in emu})}
-    lines += ["", "Emulator, median model runs per number of physical parameters: " + ", ".join(
-        f"P = {p}: {statistics.median(v):.0f} ({len(v)} cases)" for p, v in groups.items()) + ".", "", END]
+    if groups:
+        lines += ["", "Emulator, median model runs per number of physical parameters: " + ", ".join(
+            f"P = {p}: {statistics.median(v):.0f} ({len(v)} cases)" for p, v in groups.items()) + "."]
+    with_gpry = {r["case"] for r in rows if r["method"] == "gpry"}
+    without = [c for c in dict.fromkeys(r["case"] for r in rows) if c not in with_gpry]
+    if with_gpry and without:
+        lines += ["", f"No GPry row for {', '.join(without)}: GPry runs on the cases of `--gpry-cases` only "
+                  "(default: the 2- and 4-parameter ones), its own compute being minutes per case."]
+    lines += ["", END]
     return "\n".join(lines)
 
 
@@ -132,12 +163,50 @@ def write_doc(section: str) -> None:
     DOC.write_text(text)
 
 
+def rescore(files: list[Path]) -> tuple[list[dict], list]:
+    """Rows of earlier ``--out`` files scored against the current references, and their meta."""
+    saved = [json.loads(f.read_text()) for f in files]
+    rows = [r for s in saved for r in s["rows"]]
+    for row in rows:
+        path = REFS / f"{row['case']}.json"
+        now = case_hash(CASES[row["case"]])
+        if row.get("case_hash", now) != now or row.get("reference") == "old definition":
+            row["reference"] = "old definition"  # the row ran on an earlier definition of the case
+            for key in ("max_dmean_sd", "sd_ratio_min", "sd_ratio_max", "dlog_z"):
+                row.pop(key, None)
+        elif path.exists() and json.loads(path.read_text())["case_hash"] == now:
+            row.update(score(row, json.loads(path.read_text())), reference="ok")
+    meta = [min(s["meta"][0] for s in saved), saved[0]["meta"][1], saved[-1]["meta"][2]]
+    commands = [s["meta"][3] for s in saved if len(s["meta"]) > 3]
+    return rows, meta + ([commands] if commands else [])
+
+
+def header(meta: list, n_files: int) -> str:
+    """The table's first paragraph: how it was made (command, start, load) and what its columns are."""
+    start, load0, load1 = meta[:3]
+    commands = meta[3] if len(meta) > 3 else []
+    commands = [commands] if isinstance(commands, str) else commands
+    if n_files > 1:
+        how = f"{n_files} runs ({'; '.join(f'`{c}`' for c in commands) or 'one per `--methods`'}) merged by `--rescore`,"
+    else:
+        how = f"Run of `{commands[0] if commands else 'python scripts/bench_identification.py'}`"
+    return (f"{how} started {start}, {platform.machine()}, torch {torch.__version__}, 1 torch thread per "
+            f"process; load average (1, 5, 15 min) {', '.join(f'{v:.1f}' for v in load0)} at the start, "
+            f"{', '.join(f'{v:.1f}' for v in load1)} at the end (2 shared cores: CPU times are the comparable "
+            f"figures). Runs: distinct model runs; rounds: sequential rounds with 5 concurrent runs; wall: "
+            f"rounds x 10 min + own CPU; accuracy over the parameters the reference identifies; Δlog Z: the "
+            f"method's log evidence (ELBO for VBMC) minus the reference's.")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=[*METHODS, "emcee"])
+    parser.add_argument("--gpry-cases", nargs="+", default=GPRY_CASES, choices=list(CASES),
+                        help="the cases GPry runs on (default: the 2- and 4-parameter ones; minutes of CPU each)")
+    parser.add_argument("--jobs", type=int, default=1, help="(case, method) runs at a time, in separate processes")
     parser.add_argument("--quick", action="store_true", help="tiny budgets (a smoke run, not a benchmark)")
-    parser.add_argument("--out", type=Path, help="JSON file of all rows")
+    parser.add_argument("--out", type=Path, help="JSON file of all rows, rewritten after every run")
     parser.add_argument("--no-docs", action="store_true", help="do not write docs/benchmarks.md")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--rescore", type=Path, nargs="+", help="score the rows of earlier --out files "
@@ -148,43 +217,25 @@ def main() -> None:
         print(f"TORCHSHM_SMOKE=1: --quick, {args.cases} with {args.methods} only, docs/benchmarks.md left as it is")
     torch.set_num_threads(1)
     if args.rescore:
-        saved = [json.loads(f.read_text()) for f in args.rescore]
-        rows = [r for s in saved for r in s["rows"]]
-        order = {c: i for i, c in enumerate(CASES)}
-        rows.sort(key=lambda r: (order[r["case"]], [*METHODS, "emcee"].index(r["method"])))
-        start, load0, load1 = min(s["meta"][0] for s in saved), saved[0]["meta"][1], saved[-1]["meta"][2]
-        for row in rows:
-            path = REFS / f"{row['case']}.json"
-            now = case_hash(CASES[row["case"]])
-            if row.get("case_hash", now) != now or row.get("reference") == "old definition":
-                row["reference"] = "old definition"  # the row ran on an earlier definition of the case
-                for key in ("max_dmean_sd", "sd_ratio_min", "sd_ratio_max", "dlog_z"):
-                    row.pop(key, None)
-            elif path.exists() and json.loads(path.read_text())["case_hash"] == now:
-                row.update(score(row, json.loads(path.read_text())), reference="ok")
+        rows, meta = rescore(args.rescore)
     else:
+        command = " ".join(["python scripts/bench_identification.py", *sys.argv[1:]])
         start, load0 = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), os.getloadavg()
-        rows = []
         if args.out:
             args.out.parent.mkdir(parents=True, exist_ok=True)  # e.g. runs/ on a fresh checkout
-        for name in args.cases:
-            rows += run_case(name, args.methods, args.quick, args.seed)
-            if args.out:  # after every case, so that a long run can be scored while it goes on
-                args.out.write_text(json.dumps({"meta": [start, load0, os.getloadavg()], "rows": rows}) + "\n")
-        load1 = os.getloadavg()
-    how = (f"{len(args.rescore)} runs of `scripts/bench_identification.py`, one per `--methods`, side by side, "
-           f"merged by `--rescore`," if args.rescore and len(args.rescore) > 1 else
-           f"Run of `scripts/bench_identification.py{' --quick' if args.quick else ''}`")
-    header = (f"{how} started {start}, "
-              f"{platform.machine()}, torch {torch.__version__} on 1 thread; load average (1, 5, 15 min) "
-              f"{', '.join(f'{v:.1f}' for v in load0)} at the start, {', '.join(f'{v:.1f}' for v in load1)} at "
-              f"the end (2 shared cores: CPU times are the comparable figures). Runs: distinct model runs; "
-              f"rounds: sequential rounds with 5 concurrent runs; wall: rounds x 10 min + own CPU; accuracy "
-              f"over the parameters the reference identifies; Δlog Z: the method's log evidence (ELBO for "
-              f"VBMC) minus the reference's.")
-    if args.out:
-        args.out.write_text(json.dumps({"meta": [start, load0, load1], "rows": rows}) + "\n")
-    section = table(rows, header)
+        tasks = sorted(((c, m, args.quick, args.seed) for m in args.methods for c in args.cases
+                        if m != "gpry" or c in args.gpry_cases), key=lambda t: t[1] != "gpry")  # longest first
+
+        def save(done: list[dict]) -> None:
+            if args.out:  # after every run, so that a long run can be scored while it goes on
+                args.out.write_text(json.dumps({"meta": [start, load0, os.getloadavg(), command], "rows": done}) + "\n")
+
+        rows = run_all(tasks, args.jobs, save)
+        meta = [start, load0, os.getloadavg(), command]
+        save(rows)
+    order = {c: i for i, c in enumerate(CASES)}
+    rows.sort(key=lambda r: (order[r["case"]], [*METHODS, "emcee"].index(r["method"])))
+    section = table(rows, header(meta, len(args.rescore or [None])))
     print(section)
     if not args.no_docs:
         write_doc(section)
