@@ -26,9 +26,11 @@ def truncated_logpdf(dist, lo: float, hi: float, x: np.ndarray) -> np.ndarray:
     inside = (x >= lo) & (x <= hi)
     with np.errstate(divide="ignore"):
         return np.where(inside, dist.logpdf(x) - np.log(mass), -np.inf)
+# the same names in every test process (pytest-xdist compares the collections)
+CASE_IDS = [f"{i}-{prior!r}" for i, (prior, _) in enumerate(CASES)]
 
 
-@pytest.mark.parametrize(("prior", "dist"), CASES, ids=repr)
+@pytest.mark.parametrize(("prior", "dist"), CASES, ids=CASE_IDS)
 def test_log_prob_matches_truncated_scipy(prior: Prior, dist, rng: np.random.Generator) -> None:
     lo, hi = prior.hard_bounds
     span_lo, span_hi = max(lo, dist.ppf(1e-4)), min(hi, dist.ppf(1 - 1e-4))
@@ -39,7 +41,7 @@ def test_log_prob_matches_truncated_scipy(prior: Prior, dist, rng: np.random.Gen
     np.testing.assert_allclose(got, truncated_logpdf(dist, lo, hi, x), rtol=1e-12, atol=1e-12)
 
 
-@pytest.mark.parametrize(("prior", "dist"), CASES, ids=repr)
+@pytest.mark.parametrize(("prior", "dist"), CASES, ids=CASE_IDS)
 def test_density_integrates_to_one_on_hard_bounds(prior: Prior, dist) -> None:
     lo, hi = prior.hard_bounds
     lo, hi = max(lo, dist.ppf(1e-15)), min(hi, dist.ppf(1 - 1e-15))
@@ -47,7 +49,7 @@ def test_density_integrates_to_one_on_hard_bounds(prior: Prior, dist) -> None:
     assert total == pytest.approx(1.0, abs=1e-8)
 
 
-@pytest.mark.parametrize(("prior", "dist"), CASES, ids=repr)
+@pytest.mark.parametrize(("prior", "dist"), CASES, ids=CASE_IDS)
 def test_samples_follow_the_truncated_distribution(prior: Prior, dist) -> None:
     lo, hi = prior.hard_bounds
     draws = prior.sample(4000, np.random.default_rng(7))
@@ -58,7 +60,7 @@ def test_samples_follow_the_truncated_distribution(prior: Prior, dist) -> None:
     assert np.array_equal(draws, prior.sample(4000, 7))  # a seed or a Generator
 
 
-@pytest.mark.parametrize(("prior", "dist"), CASES, ids=repr)
+@pytest.mark.parametrize(("prior", "dist"), CASES, ids=CASE_IDS)
 def test_default_plausible_bounds_are_the_central_68_percent(prior: Prior, dist) -> None:
     lo, hi = prior.hard_bounds
     mass = dist.cdf(hi) - dist.cdf(lo)
