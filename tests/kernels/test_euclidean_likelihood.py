@@ -26,10 +26,11 @@ def test_field_log_likelihood_equals_scipy(rng: np.random.Generator) -> None:
     assert float(value) == pytest.approx(expected, rel=1e-10, abs=0)
 
 
-def test_field_is_dense_below_the_vecchia_size_and_vecchia_from_it() -> None:
+def test_field_is_dense_below_the_vecchia_size_and_fullscale_from_it() -> None:
     kern = get_kernel("matern32")
     assert marginal.choose_method(kern, marginal.VECCHIA_FROM - 1, "auto", dim=2) == "dense"
-    assert marginal.choose_method(kern, marginal.VECCHIA_FROM, "auto", dim=2) == "vecchia"
+    assert marginal.choose_method(kern, marginal.VECCHIA_FROM, "auto", dim=2) == "fullscale"
+    assert marginal.choose_method(kern, marginal.VECCHIA_FROM, "vecchia", dim=2) == "vecchia"
     assert marginal.choose_method(kern, 10**6, "auto", dim=1) == "state_space"
     with pytest.raises(ValueError, match="method='vecchia' is for n x d coordinates"):
         marginal.choose_method(kern, 10**4, "vecchia", dim=1)
@@ -44,7 +45,7 @@ def test_too_large_field_is_one_line_with_size_and_alternatives(monkeypatch: pyt
         marginal.choose_method(get_kernel("matern32"), 10_000, "dense", dim=2)
     text = str(err.value)
     assert "\n" not in text and text.startswith("10000 points per load case: a dense covariance needs 1.5 GiB of 1.0 GiB")
-    assert "2-D coordinates: use method='vecchia' (nearest-neighbour approximation) or fewer points" in text
+    assert "2-D coordinates: use method='fullscale' (low rank + nearest neighbours) or fewer" in text
     assert "state space) or fewer points (a coarser pitch)" in str(
         pytest.raises(ValueError, marginal.choose_method, get_kernel("squared_exponential"), 10_000, "auto").value
     )

@@ -26,6 +26,7 @@ class CountingModel:
         self.model, self.x, self.loads = model, model.x, model.loads
         self.names = model.names
         self.surrogate_transform = model.surrogate_transform  # the structure the model declares
+        self.default_priors = model.default_priors  # and its priors (the paper's)
         self.calls = 0
 
     def __call__(self, theta_p: torch.Tensor) -> torch.Tensor:
