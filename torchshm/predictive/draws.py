@@ -24,10 +24,10 @@ from torch import Tensor
 from torchshm.kernels import Kernel, get_kernel
 from torchshm.kernels.base import as_float64
 from torchshm.likelihood.marginal import Eq21
-from torchshm.likelihood.statespace import is_markov
+from torchshm.likelihood.statespace import BATCH_STATE_SPACE_FROM, is_markov
 
 #: 1-D lines of a Markov kernel from this many points are drawn by the O(n) state space
-STATE_SPACE_FROM = 64
+STATE_SPACE_FROM = BATCH_STATE_SPACE_FROM
 
 if TYPE_CHECKING:
     from torchshm.predictive.view import PredictionView

@@ -26,13 +26,13 @@ from torch import Tensor
 
 from torchshm.inference.adaptive.field import FieldEmulator
 from torchshm.likelihood.blocks import blocks_log_likelihood
+from torchshm.likelihood.statespace import BATCH_STATE_SPACE_FROM
 
 if TYPE_CHECKING:
     from torchshm.problem import Problem
 
-#: 1-D blocks of a Markov kernel from this many readings use the exact O(n) state space (a
-#: batch of walkers gains from it far below the likelihood's one-vector threshold)
-STATE_SPACE_FROM = 64
+#: 1-D blocks of a Markov kernel from this many readings use the exact O(n) state space
+STATE_SPACE_FROM = BATCH_STATE_SPACE_FROM
 
 
 def physical_columns(problem: Problem, theta: np.ndarray) -> np.ndarray:
