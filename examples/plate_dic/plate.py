@@ -91,6 +91,7 @@ class PlateDIC:
         self._cap = self._u.T @ g  # Uᵀ A⁻¹ U
         self._uw0 = self._u.T @ w0
         self._sw0, self._sg = strain @ w0, strain @ g
+        self._w0, self._g = w0, g  # for :meth:`deflections`
         key = f"{size}-{thickness}-{poisson}-{cell}-{pitch}-{patch}-{force}-{tuple(loads)}"
         self.identity = f"PlateDIC-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
 
@@ -105,14 +106,25 @@ class PlateDIC:
 
     def strains(self, e_gpa: Tensor, k: Tensor) -> Tensor:
         """Strains `B x L x n` [µε] for moduli `B` [GPa] and edge stiffnesses `B` [N·m/rad/m] (0 allowed)."""
+        rigidity, z = self._edge_solution(e_gpa, k)
+        eps = self._sw0 - self._sg @ z  # B x n x L, for D = 1 and h⁴ folded in below
+        return (1e6 * self.h**4 / rigidity)[:, None, None] * eps.transpose(-1, -2)
+
+    def deflections(self, e_gpa: Tensor, k: Tensor) -> Tensor:
+        """Deflections `B x L x N` [m] at the interior nodes (node ``(i, j)``, ``i = 1 .. nx - 1``,
+        ``j = 1 .. ny - 1``, at ``(i - 1)(ny - 1) + j - 1``); 0 on the edges."""
+        rigidity, z = self._edge_solution(e_gpa, k)
+        w = self._w0 - self._g @ z  # B x N x L
+        return (self.h**4 / rigidity)[:, None, None] * w.transpose(-1, -2)
+
+    def _edge_solution(self, e_gpa: Tensor, k: Tensor) -> tuple[Tensor, Tensor]:
+        """Rigidities `B` [N·m] and the edge moments' unknowns `B x 2(ny - 1) x L`."""
         rigidity = e_gpa * self.rigidity_per_gpa  # D [N·m]
         beta = k * self.h / (2.0 * rigidity)
         c = 2.0 * beta / (beta + 1.0)  # 1 + r: 0 for a simple support, 2 for a clamp
         eye = torch.eye(self._cap.shape[0], dtype=torch.float64)
         small = eye + c[:, None, None] * self._cap  # B x 2(ny-1) x 2(ny-1)
-        z = torch.linalg.solve(small, c[:, None, None] * self._uw0)  # (I + c C)⁻¹ c Uᵀ w0
-        eps = self._sw0 - self._sg @ z  # B x n x L, for D = 1 and h⁴ folded in below
-        return (1e6 * self.h**4 / rigidity)[:, None, None] * eps.transpose(-1, -2)
+        return rigidity, torch.linalg.solve(small, c[:, None, None] * self._uw0)  # (I + c C)⁻¹ c Uᵀ w0
 
     def _load_vectors(self, gi: Tensor, gj: Tensor, patch: float, force: float) -> Tensor:
         """Nodal loads `N x L` [N/m²]: the patch pressure averaged over each node's `h x h` cell."""

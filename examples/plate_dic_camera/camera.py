@@ -17,6 +17,7 @@ from scipy import sparse
 from torch import Tensor
 
 from examples.plate_dic.plate import PlateDIC
+from examples.plate_dic_camera.measure import Correlation
 
 
 def grid_points(x0: float, y0: float, dx: float, dy: float, nx: int, ny: int) -> np.ndarray:
@@ -32,6 +33,9 @@ class CameraPlate:
     Args:
         grid: the correlation grid ``{x0, y0, dx, dy, nx, ny}`` [m]; every point must lie within
             the plate's interior nodes (at least ``cell`` from each edge).
+        element: ``None``: the finite-difference strains, bilinear between nodes; or the
+            correlation's element side [m]: the strains the correlation measures
+            (:class:`examples.plate_dic_camera.measure.Correlation`).
         **plate: keyword arguments of :class:`PlateDIC` (size, thickness, poisson, cell, patch,
             force, loads); its ``pitch`` is set to ``cell`` (every interior node).
     """
@@ -39,17 +43,31 @@ class CameraPlate:
     names = PlateDIC.names
     units = PlateDIC.units
 
-    def __init__(self, grid: dict, **plate: object) -> None:
+    def __init__(self, grid: dict, element: float | None = None, **plate: object) -> None:
         plate = {k: v for k, v in plate.items() if k != "pitch"}
         cell = float(plate.get("cell", 0.0625))  # type: ignore[arg-type]
         self.plate = PlateDIC(pitch=cell, **plate)  # type: ignore[arg-type]
         self.loads = self.plate.loads
         self.x = torch.as_tensor(grid_points(**grid), dtype=torch.float64)
         self._interp = _bilinear(self.plate.x.numpy(), self.x.numpy(), cell)
-        self.identity = f"CameraPlate-{self.plate.identity}-{tuple(sorted(grid.items()))}"
+        self.measure = None
+        if element is not None:
+            h, (a, b) = self.plate.h, self.plate.size
+            self._shape = (round(a / h) - 1, round(b / h) - 1)  # interior nodes each way
+            xs, ys = h * np.arange(self._shape[0] + 2), h * np.arange(self._shape[1] + 2)
+            self.measure = Correlation(xs, ys, grid, float(element), self.plate.t)
+        self.identity = f"CameraPlate-{self.plate.identity}-{tuple(sorted(grid.items()))}-{element}"
 
     def __call__(self, theta_p: object) -> Tensor:
         """Strains ``eps_xx`` `... x L x n` [µε] for ``(E, log10_k)`` `... x 2`."""
+        if self.measure is not None:
+            theta = torch.as_tensor(theta_p, dtype=torch.float64)
+            flat = theta.reshape(-1, 2)
+            w = self.plate.deflections(flat[:, 0], 10.0 ** flat[:, 1]).numpy()  # B x L x N
+            full = np.zeros((*w.shape[:2], self._shape[0] + 2, self._shape[1] + 2))
+            full[..., 1:-1, 1:-1] = w.reshape(*w.shape[:2], *self._shape)
+            out = torch.from_numpy(self.measure(full))
+            return out.reshape(*theta.shape[:-1], len(self.loads), self.x.shape[0])
         nodes = self.plate(theta_p)  # ... x L x N
         flat = nodes.reshape(-1, nodes.shape[-1]).numpy()
         out = np.asarray(self._interp @ flat.T).T  # (... L) x n

@@ -11,6 +11,7 @@ from torchshm.kernels.stationary import (
     Matern52,
     SquaredExponential,
 )
+from torchshm.kernels.upscaled import Upscaled  # after KERNELS (Table 6): a kernel of its own form
 
 __all__ = [
     "KERNELS",
@@ -21,6 +22,7 @@ __all__ = [
     "Matern32",
     "Matern52",
     "SquaredExponential",
+    "Upscaled",
     "get_kernel",
     "kernel_names",
 ]

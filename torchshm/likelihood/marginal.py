@@ -8,18 +8,16 @@ For load case ``l`` of a parameter vector with model response ``eta_l`` (`n`)::
 ``Likelihood.marginal``: :meth:`Eq21.log_prob` gives the log-likelihood and :meth:`Eq21.sample`
 the posterior predictive draws (Eq. 15), from the same covariance. Two representations:
 
-- ``"dense"``: the `n x n` matrix :func:`covariance`, factorised by batched Cholesky
-  (O(n³) time, O(n²) memory); any kernel; differentiable.
-- ``"state_space"``: for the Markov kernels (exponential, Matérn 3/2 and 5/2) the exact same
-  density and draws from the kernel's state-space form, O(n) time and memory
-  (:mod:`torchshm.likelihood.statespace`); differentiable, CPU or CUDA.
-- ``"vecchia"``: for fields of `n x d` coordinates (`d >= 2`), the nearest-neighbour (Vecchia)
-  approximation of the same Gaussian, O(n m³) time and O(n m) memory
-  (:mod:`torchshm.likelihood.vecchia`); differentiable, CPU or CUDA; approximate, with the
-  error measured in ``docs/likelihood.md`` (tens to hundreds of nats at long lengths).
-- ``"fullscale"``: for fields, a low-rank part (the long range) plus Vecchia on the residual
-  (:mod:`torchshm.likelihood.fullscale`); differentiable, CPU or CUDA; approximate (error
-  small at long lengths, large at short ones with little noise: ``docs/likelihood.md``).
+- ``"dense"``: the `n x n` matrix :func:`covariance`, batched Cholesky (O(n³) time, O(n²)
+  memory); any kernel; differentiable.
+- ``"state_space"``: Markov kernels (exponential, Matérn 3/2, 5/2): the exact density and draws
+  in O(n) (:mod:`~torchshm.likelihood.statespace`); differentiable, CPU or CUDA.
+- ``"vecchia"``: fields of `n x d` coordinates (`d >= 2`), nearest neighbours, O(n m³)
+  (:mod:`~torchshm.likelihood.vecchia`); differentiable; approximate (``docs/likelihood.md``).
+- ``"fullscale"``: fields, low rank plus Vecchia (:mod:`~torchshm.likelihood.fullscale`);
+  differentiable; approximate (small error at long lengths, large at short ones).
+- ``"upscaled"``: kernel ``upscaled``, an image correlation's element values, exact, sparse
+  (:mod:`~torchshm.likelihood.upscaled`); NumPy/SciPy, no gradients.
 
 ``method="auto"`` takes the state space from :data:`STATE_SPACE_FROM` points per load case
 (the measured crossover, ``docs/likelihood.md``), the full-scale form for fields from
@@ -39,7 +37,7 @@ import torch
 from torch import Tensor
 
 from torchshm.kernels import Kernel
-from torchshm.likelihood import fullscale, statespace, vecchia
+from torchshm.likelihood import fullscale, statespace, upscaled, vecchia
 from torchshm.likelihood.cholesky import cholesky_with_jitter
 
 logger = logging.getLogger(__name__)
@@ -98,6 +96,11 @@ def choose_method(
             ``"vecchia"`` or ``"fullscale"`` for 1-D positions, or a dense covariance larger than
             :data:`DENSE_MEMORY_SHARE` of the physical memory.
     """
+    own = getattr(kern, "form", None)  # a kernel with a sparse density of its own (upscaled)
+    if own is not None and method in ("auto", own):
+        if not noise_positive or dim != 2:
+            raise ValueError(f"kernel {kern.name!r} needs n x 2 coordinates and sigma_e > 0")
+        return own
     if method not in ("auto", "dense", "state_space", "diagonal", "vecchia", "fullscale"):
         raise ValueError(
             f"method must be 'auto', 'dense', 'state_space', 'fullscale' or 'vecchia', got {method!r}"
@@ -210,6 +213,8 @@ class Eq21:
             else:
                 x = self.x
             return statespace.log_density(resid, noise, x, self.kern, self.sigma_a, self.length)
+        if self.method == "upscaled":
+            return upscaled.log_density(resid, noise, self.x, self.sigma_a, self.length)
         if self.method == "vecchia":
             return vecchia.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length)
         if self.method == "fullscale":
@@ -251,6 +256,9 @@ class Eq21:
                 return out
             out[..., order] += f + (sigma_e * e)[..., order]
             return out
+        if self.method == "upscaled":
+            f = upscaled.sample(x, self.sigma_a, self.length, eta.shape[1], generator)
+            return out + f + sigma_e * torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
         z2 = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
         if self.method in ("vecchia", "fullscale"):  # draws: the Vecchia factor (docs/likelihood.md)
             if isinstance(self.sigma_e, Tensor) and self.sigma_e.ndim:  # inferred: one level per row

@@ -1,0 +1,54 @@
+"""The noise of a strain field upscaled from independent element values, as a kernel.
+
+``kernel=upscaled``: the covariance ``sigma_a**2 U Uᵀ`` of :mod:`torchshm.likelihood.upscaled`:
+independent values of sd ``sigma_a`` [µε] at the centres of square elements of side ``length``
+[m], carried bilinearly to the points (an image correlation that writes its element strains on
+a finer grid, e.g. muDIC's ``Fields(upscale=3)``). It is not a function of the distance (a point
+between centres is an average of four elements, a centre is one element), so
+:meth:`Upscaled.correlation` is not defined; the dense covariance (:meth:`Upscaled.__call__`,
+for tests and small fields) and the sparse density through the elements (``method="auto"``, any
+size) are exact. ``length`` is the correlation's element side, known from its settings: give it
+a ``fixed`` prior.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import Tensor
+
+from torchshm.kernels.base import Kernel, as_float64
+
+
+class Upscaled(Kernel):
+    """Independent element values upscaled bilinearly to `n x 2` points.
+
+    ``sigma_a`` [µε] is the sd of one element's value; ``length`` [m] the element side. The
+    points' first row and column must lie on element centres. :meth:`diag` gives
+    ``sigma_a**2`` at every point, the variance at a centre (an upper bound between centres).
+    """
+
+    name = "upscaled"
+    #: the likelihood's form for this kernel (:func:`torchshm.likelihood.marginal.choose_method`)
+    form = "upscaled"
+
+    def correlation(self, d: Tensor, length: Tensor | None) -> Tensor:
+        raise NotImplementedError("kernel 'upscaled' is not a function of the distance")
+
+    def __call__(self, x1: object, x2: object | None = None, *, sigma_a: object = 1.0,
+                 length: object | None = None) -> Tensor:
+        """Dense covariances ``sigma_a**2 U Uᵀ`` `... x n x n` [µε²] of the points ``x1`` `n x 2`.
+
+        Raises:
+            ValueError: for ``x2`` other than ``x1`` (the noise is defined on one field's points).
+        """
+        from torchshm.likelihood import upscaled  # here: the likelihood package imports the kernels
+
+        x1 = as_float64(x1)
+        if x2 is not None and not torch.equal(as_float64(x2), x1):
+            raise ValueError("kernel 'upscaled': covariances between two different point sets are not defined")
+        sigma_a, length = self._parameters(sigma_a, length)
+        n, out = x1.shape[0], []
+        for s, ell in zip(sigma_a.reshape(-1).tolist(), length.reshape(-1).tolist()):
+            u = torch.as_tensor(upscaled.operator(x1.numpy(), ell).toarray())
+            out.append(s**2 * u @ u.T)
+        return torch.stack(out).reshape(*sigma_a.shape, n, n) if out else x1.new_zeros(*sigma_a.shape, n, n)
