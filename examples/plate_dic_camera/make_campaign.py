@@ -48,7 +48,7 @@ SEED = 21
 def plate_settings() -> dict:
     """The model's keyword arguments from ``conf/model/plate_dic_camera.yaml``."""
     spec = yaml.safe_load((HERE / "conf" / "model" / "plate_dic_camera.yaml").read_text())
-    return {k: v for k, v in spec.items() if not k.startswith("_") and k != "grid"}
+    return {k: v for k, v in spec.items() if not k.startswith("_") and k not in ("grid", "element")}
 
 
 def images(rng: np.random.Generator) -> tuple[list[np.ndarray], tuple[float, ...]]:

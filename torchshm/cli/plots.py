@@ -188,6 +188,11 @@ def _label(measurements: object, line: str) -> object:
     return next((v for v in measurements.lines if str(v) == str(line)), line)  # type: ignore[attr-defined]
 
 
+#: total marker area [pt²] of a map's points (60 pt² squares up to 192 points, the plate example's
+#: grid; smaller ones for more points, down to MARKER_SMALLEST, so a camera field does not blot)
+MARKER_AREA, MARKER_SMALLEST = 60.0 * 192, 0.3
+
+
 def predictive_map(pred: object, measurements: object, load: float, path: Path) -> Path:
     """A held-out load case of a field (`n x 2` coordinates): four maps of the points.
 
@@ -207,19 +212,21 @@ def predictive_map(pred: object, measurements: object, load: float, path: Path) 
     low, high = np.nanmin([values.min(initial=np.inf, where=valid), mean.min()]), np.nanmax(
         [values.max(initial=-np.inf, where=valid), mean.max()])
     fig, axes = plt.subplots(2, 2, figsize=(10, 7.5), sharex=True, sharey=True, constrained_layout=True)
+    size = float(np.clip(MARKER_AREA / max(len(xy), 1), MARKER_SMALLEST, 60.0))  # squares that tile the panel
     panels = (("measured [µε]", values, "viridis", (low, high)), ("predictive mean [µε]", mean, "viridis", (low, high)),
               ("95 % interval width [µε]", upper - lower, "magma", (None, None)))
     for ax, (title, v, cmap, (vmin, vmax)) in zip(axes.flat, panels):
         shown = np.isfinite(v)
-        art = ax.scatter(xy[shown, 0], xy[shown, 1], c=v[shown], cmap=cmap, vmin=vmin, vmax=vmax, marker="s", s=60)
+        art = ax.scatter(xy[shown, 0], xy[shown, 1], c=v[shown], cmap=cmap, vmin=vmin, vmax=vmax, marker="s", s=size,
+                         linewidths=0, rasterized=True)
         fig.colorbar(art, ax=ax, shrink=0.85)
         ax.set_title(title)
     ax = axes[1, 1]
-    ax.scatter(xy[:, 0], xy[:, 1], c="0.85", marker="s", s=60, label="inside")
-    ax.scatter(xy[above, 0], xy[above, 1], c="C3", marker="s", s=60, label="above")
-    ax.scatter(xy[below, 0], xy[below, 1], c="C0", marker="s", s=60, label="below")
+    for where, colour, label in ((slice(None), "0.85", "inside"), (above, "C3", "above"), (below, "C0", "below")):
+        ax.scatter(xy[where, 0], xy[where, 1], c=colour, marker="s", s=size, linewidths=0, rasterized=True, label=label)
     ax.set_title(f"outside the interval: {int(above.sum() + below.sum())} of {int(valid.sum())}")
-    ax.legend(frameon=False, fontsize="small", loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    ax.legend(frameon=False, fontsize="small", loc="upper left", bbox_to_anchor=(1.0, 1.0),
+              markerscale=max(1.0, (30.0 / size) ** 0.5))
     for ax in axes.flat:
         ax.set_aspect("equal")
     for ax in axes[-1]:

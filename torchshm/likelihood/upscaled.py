@@ -79,7 +79,9 @@ def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length
     out = np.empty(r.shape[0])
     ops: dict[float, sparse.csr_matrix] = {}
     for b in range(r.shape[0]):
-        w = ops.setdefault(float(ell[b]), operator(xs, float(ell[b])))
+        if float(ell[b]) not in ops:
+            ops[float(ell[b])] = operator(xs, float(ell[b]))
+        w = ops[float(ell[b])]
         total = 0.0
         for load in range(r.shape[1]):
             if load == 0 or not np.array_equal(d[b, load], d[b, load - 1]):
@@ -97,9 +99,11 @@ def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length
 def sample(x: Tensor, sigma_a: Tensor, length: Tensor, n_loads: int, generator: torch.Generator) -> Tensor:
     """Draws `B x L x n` [µε] of ``sigma_a U z`` (``z``: standard normals of the elements from
     ``generator``, `L x N` per parameter vector in turn)."""
-    xs, out = x.detach().cpu().numpy(), []
+    xs, out, ops = x.detach().cpu().numpy(), [], {}
     for b in range(sigma_a.shape[0]):
-        w = operator(xs, float(length[b]))
+        if float(length[b]) not in ops:
+            ops[float(length[b])] = operator(xs, float(length[b]))
+        w = ops[float(length[b])]
         z = torch.randn(n_loads, w.shape[1], generator=generator, dtype=torch.float64).numpy()
         out.append(torch.as_tensor(float(sigma_a[b]) * (w @ z.T).T))
     return torch.stack(out).to(x.device)
