@@ -191,12 +191,15 @@ def _label(measurements: object, line: str) -> object:
 #: total marker area [pt²] of a map's points (60 pt² squares up to 192 points, the plate example's
 #: grid; smaller ones for more points, down to MARKER_SMALLEST, so a camera field does not blot)
 MARKER_AREA, MARKER_SMALLEST = 60.0 * 192, 0.3
+#: share of the points at each end of a map's colour range left out of it (drawn in the end colours)
+CLIP = 0.001
 
 
 def predictive_map(pred: object, measurements: object, load: float, path: Path) -> Path:
     """A held-out load case of a field (`n x 2` coordinates): four maps of the points.
 
-    Measured strain and predictive mean (one colour scale), the width of the interval, and
+    Measured strain and predictive mean (one colour scale, without the :data:`CLIP` extremes of
+    either end when there are more than ``1 / CLIP`` values), the width of the interval, and
     where the measurement falls outside it (red above, blue below; grey inside).
     """
     plt = _pyplot()
@@ -209,8 +212,8 @@ def predictive_map(pred: object, measurements: object, load: float, path: Path) 
     xy = np.asarray(y.x)[found]  # the points aligned() compares, in its order
     valid = np.isfinite(values)
     above, below = valid & (values > upper), valid & (values < lower)
-    low, high = np.nanmin([values.min(initial=np.inf, where=valid), mean.min()]), np.nanmax(
-        [values.max(initial=-np.inf, where=valid), mean.max()])
+    both = np.concatenate([values[valid], np.asarray(mean)])  # colour range: all but the 0.1 % extremes
+    low, high = np.quantile(both, [CLIP, 1.0 - CLIP]) if len(both) > 1 / CLIP else (both.min(), both.max())
     fig, axes = plt.subplots(2, 2, figsize=(10, 7.5), sharex=True, sharey=True, constrained_layout=True)
     size = float(np.clip(MARKER_AREA / max(len(xy), 1), MARKER_SMALLEST, 60.0))  # squares that tile the panel
     panels = (("measured [µε]", values, "viridis", (low, high)), ("predictive mean [µε]", mean, "viridis", (low, high)),
@@ -219,11 +222,12 @@ def predictive_map(pred: object, measurements: object, load: float, path: Path) 
         shown = np.isfinite(v)
         art = ax.scatter(xy[shown, 0], xy[shown, 1], c=v[shown], cmap=cmap, vmin=vmin, vmax=vmax, marker="s", s=size,
                          linewidths=0, rasterized=True)
-        fig.colorbar(art, ax=ax, shrink=0.85)
+        fig.colorbar(art, ax=ax, shrink=0.85, extend="neither" if vmin is None else "both")
         ax.set_title(title)
     ax = axes[1, 1]
     for where, colour, label in ((slice(None), "0.85", "inside"), (above, "C3", "above"), (below, "C0", "below")):
-        ax.scatter(xy[where, 0], xy[where, 1], c=colour, marker="s", s=size, linewidths=0, rasterized=True, label=label)
+        ax.scatter(xy[where, 0], xy[where, 1], c=colour, marker="s", s=size if label == "inside" else max(size, 2.0),
+                   linewidths=0, rasterized=True, label=label)
     ax.set_title(f"outside the interval: {int(above.sum() + below.sum())} of {int(valid.sum())}")
     ax.legend(frameon=False, fontsize="small", loc="upper left", bbox_to_anchor=(1.0, 1.0),
               markerscale=max(1.0, (30.0 / size) ** 0.5))
