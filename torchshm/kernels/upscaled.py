@@ -1,6 +1,7 @@
 """The noise of a strain field upscaled from independent element values, as a kernel.
 
-``kernel=upscaled``: the covariance ``sigma_a**2 U Uᵀ`` of :mod:`torchshm.likelihood.upscaled`:
+``kernel=upscaled``: the covariance ``sigma_a**2 U Uᵀ`` (:func:`operator`: ``U``; the density:
+:mod:`torchshm.likelihood.upscaled`):
 independent values of sd ``sigma_a`` [µε] at the centres of square elements of side ``length``
 [m], carried bilinearly to the points (an image correlation that writes its element strains on
 a finer grid, e.g. muDIC's ``Fields(upscale=3)``). It is not a function of the distance (a point
@@ -13,10 +14,43 @@ a ``fixed`` prior.
 
 from __future__ import annotations
 
+import numpy as np
 import torch
+from scipy import sparse
 from torch import Tensor
 
 from torchshm.kernels.base import Kernel, as_float64
+
+#: a point within this share of an element side of a centre is on it (e.g. a float32 length)
+SNAP = 1e-4
+
+
+def operator(x: np.ndarray, length: float) -> sparse.csr_matrix:
+    """``U`` `n x N`: bilinear weights from the element centres (pitch ``length`` [m]) to the
+    points ``x`` `n x 2` [m]; elements that no point sees are left out.
+
+    Raises:
+        ValueError: for points that are not `n x 2` or a non-positive ``length``.
+    """
+    if x.ndim != 2 or x.shape[1] != 2:
+        raise ValueError(f"upscaled field noise: points must be n x 2 coordinates, got {x.shape}")
+    if not length > 0:
+        raise ValueError(f"upscaled field noise: the element side (length) must be > 0 m, got {length}")
+    f = (x - x.min(axis=0)) / length  # element-centre grid coordinates
+    shape = np.floor(f.max(axis=0) + SNAP).astype(int) + 1  # element centres each way
+    base = np.minimum(np.floor(f + SNAP).astype(int), np.maximum(shape - 2, 0))
+    t = np.clip(f - base, 0.0, 1.0)
+    rows, cols, vals = [], [], []
+    for di, dj, w in ((0, 0, (1 - t[:, 0]) * (1 - t[:, 1])), (1, 0, t[:, 0] * (1 - t[:, 1])),
+                      (0, 1, (1 - t[:, 0]) * t[:, 1]), (1, 1, t[:, 0] * t[:, 1])):
+        ei, ej = np.minimum(base[:, 0] + di, shape[0] - 1), np.minimum(base[:, 1] + dj, shape[1] - 1)
+        rows.append(np.arange(x.shape[0]))
+        cols.append(ei * shape[1] + ej)
+        vals.append(w)
+    out = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                            shape=(x.shape[0], int(shape[0] * shape[1])))
+    out.eliminate_zeros()
+    return out[:, np.unique(out.indices)].tocsr()
 
 
 class Upscaled(Kernel):
@@ -41,14 +75,12 @@ class Upscaled(Kernel):
         Raises:
             ValueError: for ``x2`` other than ``x1`` (the noise is defined on one field's points).
         """
-        from torchshm.likelihood import upscaled  # here: the likelihood package imports the kernels
-
         x1 = as_float64(x1)
         if x2 is not None and not torch.equal(as_float64(x2), x1):
             raise ValueError("kernel 'upscaled': covariances between two different point sets are not defined")
         sigma_a, length = self._parameters(sigma_a, length)
         n, out = x1.shape[0], []
         for s, ell in zip(sigma_a.reshape(-1).tolist(), length.reshape(-1).tolist()):
-            u = torch.as_tensor(upscaled.operator(x1.numpy(), ell).toarray())
+            u = torch.as_tensor(operator(x1.numpy(), ell).toarray())
             out.append(s**2 * u @ u.T)
         return torch.stack(out).reshape(*sigma_a.shape, n, n) if out else x1.new_zeros(*sigma_a.shape, n, n)

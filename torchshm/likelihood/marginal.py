@@ -6,23 +6,14 @@ For load case ``l`` of a parameter vector with model response ``eta_l`` (`n`)::
 
 :class:`Eq21` is that distribution for a batch of parameter vectors, in the spirit of GPyTorch's
 ``Likelihood.marginal``: :meth:`Eq21.log_prob` gives the log-likelihood and :meth:`Eq21.sample`
-the posterior predictive draws (Eq. 15), from the same covariance. Two representations:
-
-- ``"dense"``: the `n x n` matrix :func:`covariance`, batched Cholesky (O(n³) time, O(n²)
-  memory); any kernel; differentiable.
-- ``"state_space"``: Markov kernels (exponential, Matérn 3/2, 5/2): the exact density and draws
-  in O(n) (:mod:`~torchshm.likelihood.statespace`); differentiable, CPU or CUDA.
-- ``"vecchia"``: fields of `n x d` coordinates (`d >= 2`), nearest neighbours, O(n m³)
-  (:mod:`~torchshm.likelihood.vecchia`); differentiable; approximate (``docs/likelihood.md``).
-- ``"fullscale"``: fields, low rank plus Vecchia (:mod:`~torchshm.likelihood.fullscale`);
-  differentiable; approximate (small error at long lengths, large at short ones).
-- ``"upscaled"``: kernel ``upscaled``, an image correlation's element values, exact, sparse
-  (:mod:`~torchshm.likelihood.upscaled`); NumPy/SciPy, no gradients.
-
-``method="auto"`` takes the state space from :data:`STATE_SPACE_FROM` points per load case
-(the measured crossover, ``docs/likelihood.md``), the full-scale form for fields from
-:data:`VECCHIA_FROM` points per load case, and refuses, with one line, a dense covariance that
-would not fit in memory.
+the posterior predictive draws (Eq. 15), from the same covariance, in one of these forms
+(``docs/likelihood.md``): ``"dense"`` (:func:`covariance`, batched Cholesky, any kernel),
+``"state_space"`` (Markov kernels, exact, O(n), :mod:`~torchshm.likelihood.statespace`),
+``"vecchia"`` and ``"fullscale"`` (fields of `n x d` coordinates, approximate), all
+differentiable on CPU or CUDA; ``"upscaled"`` (kernel ``upscaled``, exact, sparse, NumPy/SciPy,
+:mod:`~torchshm.likelihood.upscaled`). ``method="auto"`` takes the state space from
+:data:`STATE_SPACE_FROM` points per load case, the full-scale form for fields from
+:data:`VECCHIA_FROM`, and refuses, with one line, a dense covariance that would not fit in memory.
 """
 
 from __future__ import annotations

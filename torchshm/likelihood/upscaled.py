@@ -33,37 +33,9 @@ from scipy import sparse
 from scipy.sparse.linalg import splu
 from torch import Tensor
 
+from torchshm.kernels.upscaled import operator
+
 LOG_2PI = math.log(2.0 * math.pi)
-#: a point within this share of an element side of a centre is on it (e.g. a float32 length)
-SNAP = 1e-4
-
-
-def operator(x: np.ndarray, length: float) -> sparse.csr_matrix:
-    """``U`` `n x N`: bilinear weights from the element centres (pitch ``length`` [m]) to the
-    points ``x`` `n x 2` [m]; elements that no point sees are left out.
-
-    Raises:
-        ValueError: for points that are not `n x 2` or a non-positive ``length``.
-    """
-    if x.ndim != 2 or x.shape[1] != 2:
-        raise ValueError(f"upscaled field noise: points must be n x 2 coordinates, got {x.shape}")
-    if not length > 0:
-        raise ValueError(f"upscaled field noise: the element side (length) must be > 0 m, got {length}")
-    f = (x - x.min(axis=0)) / length  # element-centre grid coordinates
-    shape = np.floor(f.max(axis=0) + SNAP).astype(int) + 1  # element centres each way
-    base = np.minimum(np.floor(f + SNAP).astype(int), np.maximum(shape - 2, 0))
-    t = np.clip(f - base, 0.0, 1.0)
-    rows, cols, vals = [], [], []
-    for di, dj, w in ((0, 0, (1 - t[:, 0]) * (1 - t[:, 1])), (1, 0, t[:, 0] * (1 - t[:, 1])),
-                      (0, 1, (1 - t[:, 0]) * t[:, 1]), (1, 1, t[:, 0] * t[:, 1])):
-        ei, ej = np.minimum(base[:, 0] + di, shape[0] - 1), np.minimum(base[:, 1] + dj, shape[1] - 1)
-        rows.append(np.arange(x.shape[0]))
-        cols.append(ei * shape[1] + ej)
-        vals.append(w)
-    out = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                            shape=(x.shape[0], int(shape[0] * shape[1])))
-    out.eliminate_zeros()
-    return out[:, np.unique(out.indices)].tocsr()
 
 
 def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length: Tensor) -> Tensor:
