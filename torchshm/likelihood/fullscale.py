@@ -32,15 +32,10 @@ from torch import Tensor
 
 from torchshm.kernels import Kernel
 from torchshm.kernels.base import distances
-from torchshm.likelihood import neighbours, vecchia
+from torchshm.likelihood import fullscale_choice, neighbours, vecchia
 from torchshm.likelihood.cholesky import cholesky_with_jitter
 
 LOG_2PI = math.log(2.0 * math.pi)
-#: a pivot whose conditional variance given the earlier pivots falls below this share of
-#: ``sigma_a**2`` ends the low-rank part (the rest of the pivots add nothing numerically)
-PIVOT_TOL = 1e-9
-#: pivots are chosen among the first ``CANDIDATES * rank`` points of the coarse-to-fine order
-CANDIDATES = 4
 #: rows of the low-rank factor computed at once [bytes of `B x rows x r` float64]
 CHUNK_BYTES = 2**24
 #: largest stored block distances of the plan [bytes] (:func:`neighbours_for`)
@@ -63,26 +58,16 @@ def rank_for(n: int, requested: int) -> int:
     return max(0, min(requested, n, FACTOR_BYTES // (8 * n)))
 
 
-def low_rank(xo: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, rank: int) -> Tensor:
-    """The factor `B x n x r'` ``F = K[:, P] R⁻ᵀ`` of at most ``rank`` pivots ``P``.
-
-    The pivots are chosen (without gradient) by a greedy pivoted Cholesky of the correlation
-    among the first ``CANDIDATES * rank`` points of ``xo`` (coarse-to-fine, so spread over the
-    field), for the batch's longest length: each pivot is the candidate worst predicted by the
-    pivots before it; the choice stops when every candidate's conditional correlation-variance
-    is below :data:`PIVOT_TOL`. The factor itself is differentiable.
+def low_rank(xo: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, pivots: Tensor) -> Tensor:
+    """The factor `B x n x r` ``F = K[:, P] R⁻ᵀ`` of the pivots ``P`` (differentiable).
 
     Args:
         xo: `n x d` coordinates [m] in the plan's (coarse-to-fine) order.
         kern: the kernel; sigma_a: `B` scales [µε]; length: `B` lengths [m].
-        rank: largest number of pivots.
+        pivots: `r` indices into ``xo`` (:func:`~torchshm.likelihood.fullscale_choice.choose`).
     """
-    if rank == 0:
+    if pivots.numel() == 0:
         return xo.new_zeros(sigma_a.shape[0], xo.shape[0], 0)
-    with torch.no_grad():
-        cand = xo[: CANDIDATES * rank]
-        corr = kern.correlation(distances(cand, cand), length.max().reshape(1, 1))
-        pivots = _greedy_pivots(corr, rank)
     piv = xo[pivots]
     corr = kern.correlation(distances(piv, piv), length[:, None, None])  # B x r x r
     chol, _ = cholesky_with_jitter(corr)
@@ -94,27 +79,37 @@ def low_rank(xo: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, rank: in
     return sigma_a[:, None, None] * torch.cat(parts, dim=1)
 
 
-def _greedy_pivots(corr: Tensor, rank: int) -> Tensor:
-    """Indices (at most ``rank``) of a greedy pivoted Cholesky of the `c x c` matrix ``corr``."""
-    c = corr.shape[0]
-    left = corr.diagonal().clone()
-    cols = corr.new_zeros(c, min(rank, c))
-    chosen = []
-    for k in range(min(rank, c)):
-        p = int(torch.argmax(left))
-        if float(left[p]) <= PIVOT_TOL:
-            break
-        col = (corr[:, p] - cols[:, :k] @ cols[p, :k]) / left[p].sqrt()
-        cols[:, k] = col
-        left = left - col.square()
-        left[p] = 0.0
-        chosen.append(p)
-    return torch.as_tensor(chosen, dtype=torch.int64, device=corr.device)
+def setting(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: Tensor,
+            m: int | None = None, rank: int | None = None) -> tuple[neighbours.Plan, Tensor, fullscale_choice.Choice]:
+    """The plan, the pivots and the choice of one call: ``m`` and ``rank`` as given, or, where
+    None, chosen from the field (:func:`~torchshm.likelihood.fullscale_choice.choose`).
+
+    Args:
+        x: `n x d` coordinates [m]; noise: `B x L x n` diagonal [µε²] in ``x``'s order.
+        kern: the kernel; sigma_a: `B` scales [µε]; length: `B` lengths [m].
+        m: neighbours, or None; rank: the largest rank (capped by :func:`rank_for`), or None
+            (:data:`~torchshm.likelihood.marginal.FULLSCALE_RANK`'s default, 512).
+    """
+    n = x.shape[0]
+    points = x.detach().cpu().numpy()
+    order = neighbours.plan(points, fullscale_choice.NEIGHBOURS_RESOLVED if m is None else m).order
+    xo = x[torch.as_tensor(order, device=x.device)]
+    cap = rank_for(n, 512 if rank is None else rank)
+    if rank is not None and m is not None:  # as asked: the first pivots up to PIVOT_TOL
+        with torch.no_grad():
+            cand = xo[: fullscale_choice.CANDIDATES * cap]
+            corr = kern.correlation(distances(cand, cand), length.max().reshape(1, 1))
+            pivots, _ = fullscale_choice.greedy_pivots(corr, cap)
+        made = fullscale_choice.Choice(pivots, m, False, float("nan"))
+    else:
+        made = fullscale_choice.choose(xo, kern, sigma_a, length, noise, cap)
+    used = neighbours_for(n, made.neighbours if m is None else m)
+    return neighbours.plan(points, used), made.pivots, made
 
 
 def log_density(
     resid: Tensor, noise: Tensor, x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor,
-    m: int | None = None, rank: int = 0,
+    m: int | None = None, rank: int | None = None,
 ) -> Tensor:
     """Full-scale (low rank + Vecchia) log densities `B`, summed over load cases.
 
@@ -123,18 +118,19 @@ def log_density(
         noise: `B x L x n` diagonal ``sigma_m**2 eta**2 + sigma_e**2`` [µε²].
         x: `n x d` coordinates [m].
         kern: the discrepancy kernel; sigma_a: `B` scales [µε]; length: `B` lengths [m].
-        m: Vecchia neighbours per point (None: :func:`vecchia.neighbour_count`).
-        rank: pivots of the low-rank part (capped by :func:`rank_for`); 0 is plain Vecchia.
+        m: Vecchia neighbours per point; rank: pivots of the low-rank part (capped by
+            :func:`rank_for`; 0 is plain Vecchia). Both None (the default): chosen from the
+            field per call (:mod:`~torchshm.likelihood.fullscale_choice`).
 
     Returns:
         `B` log densities; -inf where a block cannot be factorised even with jitter.
     """
-    m = vecchia.neighbour_count(kern) if m is None else m
-    plan = neighbours.plan(x.detach().cpu().numpy(), m)
+    plan, pivots, _ = setting(x, kern, sigma_a, length, noise, m, rank)
+    m = plan.neighbours
     order = torch.as_tensor(plan.order, device=x.device)
     resid, noise, xo = resid[..., order], noise[..., order], x[order]
     n_vec, n_loads, n = resid.shape
-    factor = low_rank(xo, kern, sigma_a, length, rank_for(n, rank))
+    factor = low_rank(xo, kern, sigma_a, length, pivots)
     r = factor.shape[-1]
     quad = resid.new_zeros(n_vec, n_loads)
     log_det = resid.new_zeros(n_vec, n_loads)
@@ -145,15 +141,17 @@ def log_density(
     for start in range(0, n, step):
         part = slice(start, start + step)
         chol, valid, safe, bad = vecchia._factor_blocks(plan, part, kern, sigma_a, length, noise, factor)
-        rhs = torch.where(valid, resid[..., safe], 0.0).unsqueeze(-1)  # B x L x c x M x 1
-        if r:
-            rows_f = torch.where(valid[..., None], factor[:, safe], 0.0)  # B x c x M x r
-            rhs = torch.cat([rhs, rows_f[:, None].expand(-1, n_loads, -1, -1, -1)], -1)
-        sol = torch.linalg.solve_triangular(chol, rhs, upper=False)[..., -1, :]  # B x L x c x (1+r)
-        z, u = sol[..., 0], sol[..., 1:]
+        # the last row of each block's inverse factor, [-wᵀ, 1] / d, from one vector solve
+        d = chol[..., -1, -1]  # B x L x c
+        w = torch.linalg.solve_triangular(chol[..., :-1, :-1].mT, chol[..., -1, :-1].unsqueeze(-1), upper=True)
+        w = w[..., 0]  # B x L x c x m
+        rv = torch.where(valid, resid[..., safe], 0.0)  # B x L x c x M
+        z = (rv[..., -1] - (w * rv[..., :-1]).sum(-1)) / d
         quad = quad + z.square().sum(-1)
-        log_det = log_det + 2.0 * chol[..., -1, -1].log().sum(-1)
+        log_det = log_det + 2.0 * d.log().sum(-1)
         if r:
+            rows_f = torch.where(valid[..., None], factor[:, safe], 0.0)[:, None]  # B x 1 x c x M x r
+            u = (rows_f[..., -1, :] - (w.unsqueeze(-2) @ rows_f[..., :-1, :])[..., 0, :]) / d[..., None]
             gram = gram + u.mT @ u
             proj = proj + (u.mT @ z.unsqueeze(-1))[..., 0]
         failed |= bad
@@ -161,8 +159,8 @@ def log_density(
         inner = gram + torch.eye(r, dtype=gram.dtype, device=gram.device)
         chol_i = torch.linalg.cholesky(inner)
         log_det = log_det + 2.0 * chol_i.diagonal(dim1=-2, dim2=-1).log().sum(-1)
-        w = torch.linalg.solve_triangular(chol_i, proj.unsqueeze(-1), upper=False)[..., 0]
-        quad = quad - w.square().sum(-1)
+        v = torch.linalg.solve_triangular(chol_i, proj.unsqueeze(-1), upper=False)[..., 0]
+        quad = quad - v.square().sum(-1)
     total = -0.5 * (quad + log_det + n * LOG_2PI).sum(-1)
     return torch.where(failed, -torch.inf, total)
 

@@ -213,9 +213,7 @@ class Eq21:
         if self.method == "vecchia":
             return vecchia.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length)
         if self.method == "fullscale":
-            n = self.x.shape[0]
-            return fullscale.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length,
-                                         fullscale.neighbours_for(n, FULLSCALE_NEIGHBOURS), FULLSCALE_RANK)
+            return fullscale.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length)
         if self._shared_noise:
             noise = noise[:, :1]  # identical for every load case: one factorisation
         chol, failed = cholesky_with_jitter(covariance(self.x, self.kern, self.sigma_a, self.length, noise))
