@@ -88,13 +88,13 @@ def setting(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: Ten
         x: `n x d` coordinates [m]; noise: `B x L x n` diagonal [µε²] in ``x``'s order.
         kern: the kernel; sigma_a: `B` scales [µε]; length: `B` lengths [m].
         m: neighbours, or None; rank: the largest rank (capped by :func:`rank_for`), or None
-            (:data:`~torchshm.likelihood.marginal.FULLSCALE_RANK`'s default, 512).
+            (:data:`~torchshm.likelihood.fullscale_choice.RANK_MAX`).
     """
     n = x.shape[0]
     points = x.detach().cpu().numpy()
     order = neighbours.plan(points, fullscale_choice.NEIGHBOURS_RESOLVED if m is None else m).order
     xo = x[torch.as_tensor(order, device=x.device)]
-    cap = rank_for(n, 512 if rank is None else rank)
+    cap = rank_for(n, fullscale_choice.RANK_MAX if rank is None else rank)
     if rank is not None and m is not None:  # as asked: the first pivots up to PIVOT_TOL
         with torch.no_grad():
             cand = xo[: fullscale_choice.CANDIDATES * cap]
@@ -166,12 +166,13 @@ def log_density(
 
 
 def error_note(n: int, rank: int) -> str:
-    """The measured error of the full-scale form with ``rank`` pivots, for a warning."""
-    if rank >= 512:
-        return ("|error| <= 0.25 nat at 2,500 points with sigma_m = 0.05 and up to 1.3 nat with sigma_m = 0 "
-                "and sigma_e = 0.05 µε (lengths of 1-10 pitches); at 10^4 points, for lengths of 2-20 "
-                "pitches and sigma_e = 0.05 µε, 1.5-11 nat with sigma_m = 0.05 and up to 1,430 nat "
-                "(squared exponential, 2 pitches) with sigma_m = 0, growing with n")
-    return (f"an unmeasured amount at rank {rank} (capped by memory at {n} points, FACTOR_BYTES), "
-            "larger than at rank 512 (up to 1,430 nat at 10^4 points); at rank 0 (plain Vecchia) it is "
-            "tens to hundreds of nats once l spans many pitches")
+    """The measured error of the full-scale form whose rank is capped at ``rank``, for a warning."""
+    note = ("measured at 10^4 points with sigma_a = 5 µε and sigma_e = 0.05 µε (the priors' hardest corner): "
+            "within 0.05 nat where the pivots resolve the kernel to 1e-3 of the noise (squared exponential "
+            "at l >= 0.2 x field, Matérn 5/2 at the field's size with sigma_m = 0.05); elsewhere, at the cap of "
+            "512 pivots and 30 neighbours, 1-27 nat at lengths of 2-100 pitches and up to 1,510 nat "
+            "(squared exponential, 2 pitches, sigma_m = 0)")
+    if rank < fullscale_choice.RANK_MAX:
+        note += (f"; at {n} points the rank is capped at {rank} by memory (FACTOR_BYTES), so where the pivots "
+                 "do not resolve the kernel the error is larger by an unmeasured amount")
+    return note

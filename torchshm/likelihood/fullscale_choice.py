@@ -38,6 +38,8 @@ PIVOT_REL = 1e-3
 #: a pivot whose conditional correlation-variance is below this ends the pivots in any case
 #: (the rest add nothing numerically)
 PIVOT_TOL = 1e-9
+#: the largest rank (further capped by memory, :func:`~torchshm.likelihood.fullscale.rank_for`)
+RANK_MAX = 512
 #: pivots are chosen among the first ``CANDIDATES x`` cap points of the coarse-to-fine order
 CANDIDATES = 4
 #: neighbours when the pivots resolve the kernel to :data:`PIVOT_REL` of the nugget
