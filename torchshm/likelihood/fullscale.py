@@ -138,9 +138,12 @@ def log_density(
     proj = resid.new_zeros(n_vec, n_loads, r)
     failed = torch.zeros(n_vec, dtype=torch.bool, device=x.device)
     step = max(1, vecchia.CHUNK_BYTES // (n_vec * n_loads * (m + 1) * (m + 2 + r) * 8))
+    padded = torch.cat([factor, factor.new_zeros(n_vec, 1, r)], 1)  # row n: a missing slot's zeros
     for start in range(0, n, step):
         part = slice(start, start + step)
-        chol, valid, safe, bad = vecchia._factor_blocks(plan, part, kern, sigma_a, length, noise, factor)
+        rows = torch.as_tensor(plan.blocks[part], device=x.device)
+        rows_f = padded[:, torch.where(rows >= 0, rows, n)] if r else None  # B x c x M x r
+        chol, valid, safe, bad = vecchia._factor_blocks(plan, part, kern, sigma_a, length, noise, rows_f)
         # the last row of each block's inverse factor, [-wᵀ, 1] / d, from one vector solve
         d = chol[..., -1, -1]  # B x L x c
         w = torch.linalg.solve_triangular(chol[..., :-1, :-1].mT, chol[..., -1, :-1].unsqueeze(-1), upper=True)
@@ -150,8 +153,8 @@ def log_density(
         quad = quad + z.square().sum(-1)
         log_det = log_det + 2.0 * d.log().sum(-1)
         if r:
-            rows_f = torch.where(valid[..., None], factor[:, safe], 0.0)[:, None]  # B x 1 x c x M x r
-            u = (rows_f[..., -1, :] - (w.unsqueeze(-2) @ rows_f[..., :-1, :])[..., 0, :]) / d[..., None]
+            rows_l = rows_f[:, None]  # B x 1 x c x M x r
+            u = (rows_l[..., -1, :] - (w.unsqueeze(-2) @ rows_l[..., :-1, :])[..., 0, :]) / d[..., None]
             gram = gram + u.mT @ u
             proj = proj + (u.mT @ z.unsqueeze(-1))[..., 0]
         failed |= bad
