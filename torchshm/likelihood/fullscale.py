@@ -173,7 +173,7 @@ def error_note(n: int, rank: int) -> str:
     note = ("measured at 10^4 points with sigma_a = 5 µε and sigma_e = 0.05 µε (the priors' hardest corner): "
             "within 0.05 nat where the pivots resolve the kernel to 1e-3 of the noise (squared exponential "
             "at l >= 0.2 x field, Matérn 5/2 at the field's size with sigma_m = 0.05); elsewhere, at the cap of "
-            "512 pivots and 30 neighbours, 1-27 nat at lengths of 2-100 pitches and up to 1,510 nat "
+            "512 pivots and 30 neighbours, 0.3-27 nat at lengths of 2-100 pitches and up to 1,510 nat "
             "(squared exponential, 2 pitches, sigma_m = 0)")
     if rank < fullscale_choice.RANK_MAX:
         note += (f"; at {n} points the rank is capped at {rank} by memory (FACTOR_BYTES), so where the pivots "
