@@ -8,12 +8,14 @@ Sang and Huang, 2012, with a Vecchia residual as in GPBoost's Vecchia-inducing-p
     K = F Fᵀ + (K - F Fᵀ),     F = K[:, P] R⁻ᵀ,   K[P, P] = R Rᵀ,
 
 ``P`` `r` pivots among the first points of the Vecchia plan's coarse-to-fine order (spread
-over the field, chosen by a greedy pivoted Cholesky, :func:`low_rank`),
+over the field, chosen by a greedy pivoted Cholesky stopped by its residual; the rank and the
+neighbours ``m`` are chosen per call, :mod:`torchshm.likelihood.fullscale_choice`),
 ``F Fᵀ`` the exact conditional-expectation (Nyström) part that carries the long range, and the
 residual ``K - F Fᵀ`` (zero at the pivots, short-ranged) plus the diagonal ``D`` of Eq. (21)
 approximated by Vecchia. With ``W = R_V⁻¹`` that Vecchia precision (``W = Uᵀ U`` row by row:
 ``u_i(v)`` is the last entry of ``L_i⁻¹ v[N(i)+i]``, ``L_i`` the Cholesky factor of point
-``i``'s block), Woodbury gives the density of ``C = F Fᵀ + R_V`` exactly::
+``i``'s block; that last row of ``L_i⁻¹`` is ``[-wᵀ, 1] / d``, ``d`` the last diagonal entry of
+``L_i`` and ``w`` one triangular solve with its last row), Woodbury gives the density of ``C = F Fᵀ + R_V`` exactly::
 
     log det C = log det R_V + log det(I + Fᵀ W F),
     rᵀ C⁻¹ r = rᵀ W r - gᵀ (I + Fᵀ W F)⁻¹ g,      g = Fᵀ W r.
