@@ -24,12 +24,15 @@ Then the O(n) state-space form (``docs/likelihood.md``):
 
 2-D fields (the full-scale and Vecchia forms): ``--only-field`` runs ``scripts/bench_likelihood_field.py``
 (error against the dense path over the priors' range; 10^4 .. 10^6 points, one parameter
-vector, one load case, beside the dense path, scikit-learn's exact GP and a numpy reference).
+vector, one load case, beside the dense path, scikit-learn's exact GP and a numpy reference);
+``--only-keops`` runs ``scripts/bench_likelihood_keops.py`` (10^3 .. 10^5 points beside GPyTorch's
+exact Cholesky and its BBMM with KeOps kernels; its KeOps rows are skipped, with the reason,
+without pykeops or with ``TORCHSHM_SMOKE=1``).
 
 Usage::
 
     python scripts/bench_likelihood.py [--repeats 20] [--slow-repeats 3] [--seed 0]
-        [--only-dense | --only-scaling | --only-celerite | --only-draws | --only-field]
+        [--only-dense | --only-scaling | --only-celerite | --only-draws | --only-field | --only-keops]
 """
 
 from __future__ import annotations
@@ -266,14 +269,21 @@ def main() -> None:
     parser.add_argument("--only-celerite", action="store_true", help="only n = 10^5 x 12 beside celerite2")
     parser.add_argument("--only-draws", action="store_true", help="only the O(n) predictive draws")
     parser.add_argument("--only-field", action="store_true", help="only the 2-D fields (full-scale and Vecchia forms)")
+    parser.add_argument("--only-keops", action="store_true", help="only the 2-D field beside GPyTorch (Cholesky, BBMM + KeOps)")
     parser.add_argument("--one-size", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args()
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     if args.only_field:
-        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
         import bench_likelihood_field
 
         bench_likelihood_field.main(["--seed", str(args.seed)])
         return
+    if args.only_keops or SMOKE:  # the smoke: 144 points, KeOps rows skipped with their reason
+        import bench_likelihood_keops
+
+        bench_likelihood_keops.main(["--seed", str(args.seed)])
+        if args.only_keops:
+            return
     if args.one_size:
         one_size(args.one_size, args.seed)
         return

@@ -4,7 +4,7 @@ Three parts, run by ``scripts/bench_likelihood.py --only-field`` (error and scal
 file directly:
 
 - error: Δ log-likelihood of plain Vecchia (m = 10) and of the full-scale form of
-  ``method="auto"`` (rank 512 + Vecchia m = 30) against the exact dense value, over the priors'
+  ``method="auto"`` (rank and neighbours chosen per call) against the exact dense value, over the priors'
   range (σa 0.2 and 5 µε, l = 0.02, 0.2 and 1 × the field size, σe 0.05 and 1 µε, σm 0 and
   0.05; ``--corners``: σa = 5, σe = 0.05 only), on a `side x side` grid of a unit square, with
   y drawn from the exact Gaussian and a heteroscedastic diagonal (η uniform in 20..100 µε);
@@ -15,7 +15,9 @@ file directly:
   beside the full-scale form at 10^4 the dense path, scikit-learn's exact
   ``GaussianProcessRegressor.log_marginal_likelihood`` (the same kernel and diagonal) and a
   plain numpy computation of the Vecchia sum (m = 10) on the same conditioning sets;
-- posterior (``--posterior-only``): a grid posterior of (σa, l), dense against both forms.
+- posterior (``--posterior-only``): a grid posterior of (σa, l), dense against both forms;
+- ``--adaptive-side S``: one call of ``"auto"`` per kernel, length and σm at the error table's
+  corners at S² points (the rank and neighbours it chose, CPU and wall time, memory).
 
 Usage (from the repository root)::
 
@@ -35,10 +37,11 @@ import time
 
 import numpy as np
 import torch
+from bench_likelihood_keops import _peak_rss_bytes, _rss_bytes  # a sibling script (scripts/ is on the path)
 
 import torchshm
 from torchshm.kernels import get_kernel
-from torchshm.likelihood import fullscale, marginal, neighbours, vecchia
+from torchshm.likelihood import fullscale, fullscale_choice, marginal, neighbours, vecchia
 
 KERNELS = ("exponential", "matern32", "matern52", "squared_exponential")
 SA, LENGTH, SE, SM = 1.0, 0.05, 0.1, 0.05
@@ -52,20 +55,21 @@ def grid(side: int) -> np.ndarray:
 
 def error(side: int, seed: int, corners: bool = False, kernels: tuple[str, ...] = KERNELS) -> None:
     """The error table over the priors' range (one dense factorisation per row): plain Vecchia
-    (m = 10) and the full-scale form that ``method="auto"`` takes (rank 512 + Vecchia m = 30);
-    ``corners``: only σa = 5 µε, σe = 0.05 µε (largest signal, smallest noise), σm 0 and 0.05."""
+    (m = 10) and the full-scale form that ``method="auto"`` takes (rank and neighbours chosen
+    per call, shown); ``corners``: only σa = 5 µε, σe = 0.05 µε (largest signal, smallest
+    noise), σm 0 and 0.05."""
     x = torch.as_tensor(grid(side))
     n = x.shape[0]
     rng = np.random.default_rng(seed)
     eta = torch.as_tensor(rng.uniform(20.0, 100.0, (1, n)))
     print(f"\n{n:,} points ({side} x {side} grid of the unit square): approximation − dense [nat]\n")
-    print("| kernel | σa [µε] | l | σe [µε] | σm | vecchia m = 10 | fullscale (auto) | CPU [s] fullscale / dense |")
-    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    print("| kernel | σa [µε] | l | σe [µε] | σm | vecchia m = 10 | fullscale (auto) | rank, m | CPU [s] fullscale / dense |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for name in kernels:
         kern = get_kernel(name)
         grid_ = itertools.product((0.2, 5.0), (0.02, 0.2, 1.0), (0.05, 1.0), (0.0, 0.05))
         if corners:
-            grid_ = [(5.0, ell, 0.05, sm) for sm in (0.0, 0.05) for ell in (0.02, 0.2, 1.0)]
+            grid_ = [(5.0, ell, 0.05, sm) for ell in (0.02, 0.2, 1.0) for sm in (0.0, 0.05)]
         for sa, ell, se, sm in grid_:
             noise = sm**2 * eta[None] ** 2 + se**2
             start = time.process_time()
@@ -81,7 +85,43 @@ def error(side: int, seed: int, corners: bool = False, kernels: tuple[str, ...] 
             start = time.process_time()
             full = float(torchshm.log_likelihood(y, eta, x, name, sa, ell, sm, se, method="fullscale") - exact)
             cpu = time.process_time() - start
-            print(f"| {name} | {sa} | {ell} | {se} | {sm} | {plain:+.3f} | {full:+.3f} | {cpu:.1f} / {dense_cpu:.1f} |", flush=True)
+            used = _setting(x, kern, sa, ell, noise)
+            print(f"| {name} | {sa} | {ell} | {se} | {sm} | {plain:+.3f} | {full:+.3f} | {used} | {cpu:.2f} / {dense_cpu:.1f} |", flush=True)
+
+
+def _setting(x: torch.Tensor, kern: object, sa: float, ell: float, noise: torch.Tensor) -> str:
+    plan, pivots, _ = fullscale.setting(x, kern, torch.tensor([sa]), torch.tensor([ell]), noise)  # type: ignore[arg-type]
+    return f"{pivots.numel()}, {plan.neighbours}"  # rank, m of the full-scale form's choice
+
+
+def adaptive_timing(side: int, seed: int, kernels: tuple[str, ...] = KERNELS) -> None:
+    """(child process) one call of ``method="auto"`` per kernel, length (0.02, 0.2, 1 × the
+    field) and σm (0, 0.05), σa = 5 µε, σe = 0.05 µε (the error table's corners), at `side²`
+    points: the plans first (once per point set and m), then one call per row; peak memory growth
+    of the whole process."""
+    torch.set_num_threads(1)
+    xy = grid(side)
+    n = xy.shape[0]
+    rng = np.random.default_rng(seed)
+    eta = torch.as_tensor(rng.uniform(20.0, 100.0, (1, n)))
+    y = eta + torch.as_tensor(rng.normal(0.0, 1.0, (1, n)))
+    x = torch.as_tensor(xy)
+    small = torch.as_tensor(grid(20))  # warm-up: first-call initialisation is not part of the growth
+    torchshm.log_likelihood(eta[:, :400] + 1.0, eta[:, :400], small, "matern32", 1.0, 0.1, 0.05, 0.05, method="fullscale")
+    before = _rss_bytes()
+    for m in sorted({fullscale.neighbours_for(n, v) for v in (fullscale_choice.NEIGHBOURS_RESOLVED, fullscale_choice.NEIGHBOURS_MAX)}):
+        start_cpu, start = time.process_time(), time.perf_counter()
+        neighbours.plan(xy, m)
+        print(f"{n:,}\tplan, m = {m} (once per point set)\t\t\t{time.perf_counter() - start:.2f}\t{time.process_time() - start_cpu:.2f}\t", flush=True)
+    for name in kernels:
+        for ell, sm in itertools.product((0.02, 0.2, 1.0), (0.0, 0.05)):
+            start_cpu, start = time.process_time(), time.perf_counter()
+            with torch.no_grad():
+                value = float(torchshm.log_likelihood(y, eta, x, name, 5.0, ell, sm, 0.05, method="fullscale"))
+            wall, cpu = time.perf_counter() - start, time.process_time() - start_cpu
+            used = _setting(x, get_kernel(name), 5.0, ell, sm**2 * eta[None] ** 2 + 0.05**2)
+            print(f"{n:,}\t{name}\t{ell}\t{sm}\t{used}\t{wall:.3f}\t{cpu:.3f}\t{value:.1f}", flush=True)
+    print(f"{n:,}\tpeak memory growth [MB]\t\t\t\t\t{(_peak_rss_bytes() - before) / 2**20:.0f}\t")
 
 
 def posterior_grid(seed: int, side: int, kernels: tuple[str, ...], steps: int = 9) -> None:
@@ -147,8 +187,8 @@ def one_size(side: int, seed: int, method: str) -> None:
     m = vecchia.neighbour_count(get_kernel("matern32"))
     what = f"m = {m}"
     if method == "fullscale":
-        m = fullscale.neighbours_for(n, marginal.FULLSCALE_NEIGHBOURS)
-        what = f"m = {m}, rank {fullscale.rank_for(n, marginal.FULLSCALE_RANK)}"
+        m = fullscale.neighbours_for(n, fullscale_choice.NEIGHBOURS_MAX)
+        what = f"m and rank chosen per call, at most m = {m}, rank {fullscale.rank_for(n, marginal.FULLSCALE_RANK)}"
     before = _rss_bytes()
     start_cpu, start = time.process_time(), time.perf_counter()
     plan = neighbours.plan(xy, m)
@@ -215,14 +255,6 @@ def scaling(seed: int, sides: tuple[int, ...] = (100, 316, 1000)) -> None:
                 print(f"| {side * side:,} | {label} | {float(wall):.3f} | {float(cpu):.3f} | {val} | {mem} |", flush=True)
 
 
-def _rss_bytes() -> int:
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-
-
-def _peak_rss_bytes() -> int:
-    with open("/proc/self/status") as f:
-        return int(next(row for row in f if row.startswith("VmHWM:")).split()[1]) * 1024
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -235,6 +267,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--posterior-only", action="store_true", help="grid posterior of (σa, l), dense vs Vecchia")
     parser.add_argument("--error-only", action="store_true")
     parser.add_argument("--scaling-only", action="store_true")
+    parser.add_argument("--adaptive-side", type=int, default=0, help="only the adaptive timing table at side² points")
     parser.add_argument("--one-side", type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument("--method", default="vecchia", help=argparse.SUPPRESS)
     parser.add_argument("--sides", default="100,316,1000", help="grid sides of the scaling table")
@@ -242,6 +275,11 @@ def main(argv: list[str] | None = None) -> None:
     torch.set_num_threads(1)
     if args.one_side:
         one_size(args.one_side, args.seed, args.method)
+        return
+    if args.adaptive_side:
+        print(f"uptime: {os.getloadavg()}; n, kernel, l, σm, (rank, m), wall [s], CPU [s], value")
+        adaptive_timing(args.adaptive_side, args.seed, tuple(args.kernels.split(",")))
+        print(f"uptime after: {os.getloadavg()}")
         return
     print(f"uptime: {os.getloadavg()} (1, 5, 15 min load averages); torch {torch.__version__}, 1 thread")
     kernels = tuple(args.kernels.split(","))

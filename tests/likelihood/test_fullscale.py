@@ -11,7 +11,7 @@ from scipy.spatial.distance import cdist
 from scipy.stats import multivariate_normal
 
 from torchshm.kernels import get_kernel
-from torchshm.likelihood import fullscale, marginal
+from torchshm.likelihood import fullscale, fullscale_choice, marginal
 from torchshm.likelihood.gaussian import log_likelihood
 
 KERNELS = ("exponential", "matern32", "matern52", "squared_exponential")
@@ -55,7 +55,7 @@ def test_full_sets_and_low_rank_give_scipys_density(name: str, rng: np.random.Ge
 
 @pytest.mark.parametrize("name", KERNELS)
 def test_hard_regime_within_a_tenth_of_a_nat_of_dense_and_scipy(name: str) -> None:
-    """1,107 points (a 34 x 34 grid with a hole), the default m = 30 and rank 512: l = half the
+    """1,107 points (a 34 x 34 grid with a hole), the rank and neighbours chosen per call: l = half the
     field (17 pitches), σa = 5 µε, σe = 0.05 µε (the priors' largest signal, smallest noise),
     σm = 0.05, y drawn from the exact Gaussian: |Δ| <= 0.1 nat against the dense path and
     ``scipy.stats.multivariate_normal.logpdf``; plain Vecchia (m = 10) is more than 1 nat off."""
@@ -104,4 +104,37 @@ def test_auto_takes_the_full_scale_form_for_large_fields() -> None:
     assert marginal.choose_method(kern, 10**6, method="vecchia", dim=2) == "vecchia"
     with pytest.raises(ValueError, match="n x d coordinates"):
         marginal.choose_method(kern, 100, method="fullscale", dim=1)
-    assert fullscale.rank_for(10**6, 512) == fullscale.FACTOR_BYTES // (8 * 10**6)
+    assert fullscale.rank_for(10**6, marginal.FULLSCALE_RANK) == fullscale.FACTOR_BYTES // (8 * 10**6)
+
+
+@pytest.mark.parametrize(
+    ("name", "ell", "sa", "rank", "m"),
+    [
+        ("squared_exponential", 1.0, 1.0, (1, 60), fullscale_choice.NEIGHBOURS_RESOLVED),  # long, smooth: few pivots
+        ("matern52", 1.0, 1.0, (1, 200), fullscale_choice.NEIGHBOURS_RESOLVED),
+        ("exponential", 0.01, 5.0, (0, 0), fullscale_choice.NEIGHBOURS_MAX),  # half a pitch: no pivots, most neighbours
+    ],
+)
+def test_adaptive_choice_is_what_the_field_needs_and_within_a_tenth_of_a_nat(
+    name: str, ell: float, sa: float, rank: tuple[int, int], m: int
+) -> None:
+    """919 points (a 32 x 32 grid with a hole, pitch 0.032), sigma_e = 0.05 µε, sigma_m = 0.05:
+    the pivots stop by their residual (few at long smooth lengths, none at a third of a pitch,
+    where they would buy nothing), the neighbours follow, and the value is within 0.1 nat of
+    the exact one (scipy; y drawn from the exact Gaussian). The cap (512 pivots, 30
+    neighbours) is the hard-regime test's case."""
+    xy = _field(32, 0)
+    n = xy.shape[0]
+    rng = np.random.default_rng(5)
+    eta = rng.uniform(20.0, 100.0, (1, n))
+    cov = sa**2 * _correlation(name, cdist(xy, xy) / ell) + np.diag(0.05**2 * eta[0] ** 2 + 0.05**2)
+    y = eta + np.linalg.cholesky(cov) @ rng.standard_normal(n)
+    x = torch.as_tensor(xy)
+    noise = torch.as_tensor(0.05**2 * eta**2 + 0.05**2)[None]
+    _, pivots, choice = fullscale.setting(x, get_kernel(name), torch.tensor([sa]), torch.tensor([ell]), noise)
+    assert rank[0] <= pivots.numel() <= rank[1]
+    assert choice.neighbours == m
+    assert choice.resolved == (m == fullscale_choice.NEIGHBOURS_RESOLVED)
+    args = (torch.as_tensor(y), torch.as_tensor(eta), x, name, sa, ell, 0.05, 0.05)
+    exact = multivariate_normal(eta[0], cov).logpdf(y[0])
+    assert abs(float(log_likelihood(*args, method="fullscale")) - exact) <= 0.1

@@ -8,12 +8,14 @@ Sang and Huang, 2012, with a Vecchia residual as in GPBoost's Vecchia-inducing-p
     K = F Fᵀ + (K - F Fᵀ),     F = K[:, P] R⁻ᵀ,   K[P, P] = R Rᵀ,
 
 ``P`` `r` pivots among the first points of the Vecchia plan's coarse-to-fine order (spread
-over the field, chosen by a greedy pivoted Cholesky, :func:`low_rank`),
+over the field, chosen by a greedy pivoted Cholesky stopped by its residual; the rank and the
+neighbours ``m`` are chosen per call, :mod:`torchshm.likelihood.fullscale_choice`),
 ``F Fᵀ`` the exact conditional-expectation (Nyström) part that carries the long range, and the
 residual ``K - F Fᵀ`` (zero at the pivots, short-ranged) plus the diagonal ``D`` of Eq. (21)
 approximated by Vecchia. With ``W = R_V⁻¹`` that Vecchia precision (``W = Uᵀ U`` row by row:
 ``u_i(v)`` is the last entry of ``L_i⁻¹ v[N(i)+i]``, ``L_i`` the Cholesky factor of point
-``i``'s block), Woodbury gives the density of ``C = F Fᵀ + R_V`` exactly::
+``i``'s block; that last row of ``L_i⁻¹`` is ``[-wᵀ, 1] / d``, ``d`` the last diagonal entry of
+``L_i`` and ``w`` one triangular solve with its last row), Woodbury gives the density of ``C = F Fᵀ + R_V`` exactly::
 
     log det C = log det R_V + log det(I + Fᵀ W F),
     rᵀ C⁻¹ r = rᵀ W r - gᵀ (I + Fᵀ W F)⁻¹ g,      g = Fᵀ W r.
@@ -32,15 +34,10 @@ from torch import Tensor
 
 from torchshm.kernels import Kernel
 from torchshm.kernels.base import distances
-from torchshm.likelihood import neighbours, vecchia
+from torchshm.likelihood import fullscale_choice, neighbours, vecchia
 from torchshm.likelihood.cholesky import cholesky_with_jitter
 
 LOG_2PI = math.log(2.0 * math.pi)
-#: a pivot whose conditional variance given the earlier pivots falls below this share of
-#: ``sigma_a**2`` ends the low-rank part (the rest of the pivots add nothing numerically)
-PIVOT_TOL = 1e-9
-#: pivots are chosen among the first ``CANDIDATES * rank`` points of the coarse-to-fine order
-CANDIDATES = 4
 #: rows of the low-rank factor computed at once [bytes of `B x rows x r` float64]
 CHUNK_BYTES = 2**24
 #: largest stored block distances of the plan [bytes] (:func:`neighbours_for`)
@@ -63,26 +60,16 @@ def rank_for(n: int, requested: int) -> int:
     return max(0, min(requested, n, FACTOR_BYTES // (8 * n)))
 
 
-def low_rank(xo: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, rank: int) -> Tensor:
-    """The factor `B x n x r'` ``F = K[:, P] R⁻ᵀ`` of at most ``rank`` pivots ``P``.
-
-    The pivots are chosen (without gradient) by a greedy pivoted Cholesky of the correlation
-    among the first ``CANDIDATES * rank`` points of ``xo`` (coarse-to-fine, so spread over the
-    field), for the batch's longest length: each pivot is the candidate worst predicted by the
-    pivots before it; the choice stops when every candidate's conditional correlation-variance
-    is below :data:`PIVOT_TOL`. The factor itself is differentiable.
+def low_rank(xo: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, pivots: Tensor) -> Tensor:
+    """The factor `B x n x r` ``F = K[:, P] R⁻ᵀ`` of the pivots ``P`` (differentiable).
 
     Args:
         xo: `n x d` coordinates [m] in the plan's (coarse-to-fine) order.
         kern: the kernel; sigma_a: `B` scales [µε]; length: `B` lengths [m].
-        rank: largest number of pivots.
+        pivots: `r` indices into ``xo`` (:func:`~torchshm.likelihood.fullscale_choice.choose`).
     """
-    if rank == 0:
+    if pivots.numel() == 0:
         return xo.new_zeros(sigma_a.shape[0], xo.shape[0], 0)
-    with torch.no_grad():
-        cand = xo[: CANDIDATES * rank]
-        corr = kern.correlation(distances(cand, cand), length.max().reshape(1, 1))
-        pivots = _greedy_pivots(corr, rank)
     piv = xo[pivots]
     corr = kern.correlation(distances(piv, piv), length[:, None, None])  # B x r x r
     chol, _ = cholesky_with_jitter(corr)
@@ -94,27 +81,37 @@ def low_rank(xo: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, rank: in
     return sigma_a[:, None, None] * torch.cat(parts, dim=1)
 
 
-def _greedy_pivots(corr: Tensor, rank: int) -> Tensor:
-    """Indices (at most ``rank``) of a greedy pivoted Cholesky of the `c x c` matrix ``corr``."""
-    c = corr.shape[0]
-    left = corr.diagonal().clone()
-    cols = corr.new_zeros(c, min(rank, c))
-    chosen = []
-    for k in range(min(rank, c)):
-        p = int(torch.argmax(left))
-        if float(left[p]) <= PIVOT_TOL:
-            break
-        col = (corr[:, p] - cols[:, :k] @ cols[p, :k]) / left[p].sqrt()
-        cols[:, k] = col
-        left = left - col.square()
-        left[p] = 0.0
-        chosen.append(p)
-    return torch.as_tensor(chosen, dtype=torch.int64, device=corr.device)
+def setting(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: Tensor,
+            m: int | None = None, rank: int | None = None) -> tuple[neighbours.Plan, Tensor, fullscale_choice.Choice]:
+    """The plan, the pivots and the choice of one call: ``m`` and ``rank`` as given, or, where
+    None, chosen from the field (:func:`~torchshm.likelihood.fullscale_choice.choose`).
+
+    Args:
+        x: `n x d` coordinates [m]; noise: `B x L x n` diagonal [µε²] in ``x``'s order.
+        kern: the kernel; sigma_a: `B` scales [µε]; length: `B` lengths [m].
+        m: neighbours, or None; rank: the largest rank (capped by :func:`rank_for`), or None
+            (:data:`~torchshm.likelihood.fullscale_choice.RANK_MAX`).
+    """
+    n = x.shape[0]
+    points = x.detach().cpu().numpy()
+    order = neighbours.plan(points, fullscale_choice.NEIGHBOURS_RESOLVED if m is None else m).order
+    xo = x[torch.as_tensor(order, device=x.device)]
+    cap = rank_for(n, fullscale_choice.RANK_MAX if rank is None else rank)
+    if rank is not None and m is not None:  # as asked: the first pivots up to PIVOT_TOL
+        with torch.no_grad():
+            cand = xo[: fullscale_choice.CANDIDATES * cap]
+            corr = kern.correlation(distances(cand, cand), length.max().reshape(1, 1))
+            pivots, _ = fullscale_choice.greedy_pivots(corr, cap)
+        made = fullscale_choice.Choice(pivots, m, False, float("nan"))
+    else:
+        made = fullscale_choice.choose(xo, kern, sigma_a, length, noise, cap)
+    used = neighbours_for(n, made.neighbours if m is None else m)
+    return neighbours.plan(points, used), made.pivots, made
 
 
 def log_density(
     resid: Tensor, noise: Tensor, x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor,
-    m: int | None = None, rank: int = 0,
+    m: int | None = None, rank: int | None = None,
 ) -> Tensor:
     """Full-scale (low rank + Vecchia) log densities `B`, summed over load cases.
 
@@ -123,18 +120,19 @@ def log_density(
         noise: `B x L x n` diagonal ``sigma_m**2 eta**2 + sigma_e**2`` [µε²].
         x: `n x d` coordinates [m].
         kern: the discrepancy kernel; sigma_a: `B` scales [µε]; length: `B` lengths [m].
-        m: Vecchia neighbours per point (None: :func:`vecchia.neighbour_count`).
-        rank: pivots of the low-rank part (capped by :func:`rank_for`); 0 is plain Vecchia.
+        m: Vecchia neighbours per point; rank: pivots of the low-rank part (capped by
+            :func:`rank_for`; 0 is plain Vecchia). Both None (the default): chosen from the
+            field per call (:mod:`~torchshm.likelihood.fullscale_choice`).
 
     Returns:
         `B` log densities; -inf where a block cannot be factorised even with jitter.
     """
-    m = vecchia.neighbour_count(kern) if m is None else m
-    plan = neighbours.plan(x.detach().cpu().numpy(), m)
+    plan, pivots, _ = setting(x, kern, sigma_a, length, noise, m, rank)
+    m = plan.neighbours
     order = torch.as_tensor(plan.order, device=x.device)
     resid, noise, xo = resid[..., order], noise[..., order], x[order]
     n_vec, n_loads, n = resid.shape
-    factor = low_rank(xo, kern, sigma_a, length, rank_for(n, rank))
+    factor = low_rank(xo, kern, sigma_a, length, pivots)
     r = factor.shape[-1]
     quad = resid.new_zeros(n_vec, n_loads)
     log_det = resid.new_zeros(n_vec, n_loads)
@@ -142,18 +140,23 @@ def log_density(
     proj = resid.new_zeros(n_vec, n_loads, r)
     failed = torch.zeros(n_vec, dtype=torch.bool, device=x.device)
     step = max(1, vecchia.CHUNK_BYTES // (n_vec * n_loads * (m + 1) * (m + 2 + r) * 8))
+    padded = torch.cat([factor, factor.new_zeros(n_vec, 1, r)], 1)  # row n: a missing slot's zeros
     for start in range(0, n, step):
         part = slice(start, start + step)
-        chol, valid, safe, bad = vecchia._factor_blocks(plan, part, kern, sigma_a, length, noise, factor)
-        rhs = torch.where(valid, resid[..., safe], 0.0).unsqueeze(-1)  # B x L x c x M x 1
-        if r:
-            rows_f = torch.where(valid[..., None], factor[:, safe], 0.0)  # B x c x M x r
-            rhs = torch.cat([rhs, rows_f[:, None].expand(-1, n_loads, -1, -1, -1)], -1)
-        sol = torch.linalg.solve_triangular(chol, rhs, upper=False)[..., -1, :]  # B x L x c x (1+r)
-        z, u = sol[..., 0], sol[..., 1:]
+        rows = torch.as_tensor(plan.blocks[part], device=x.device)
+        rows_f = padded[:, torch.where(rows >= 0, rows, n)] if r else None  # B x c x M x r
+        chol, valid, safe, bad = vecchia._factor_blocks(plan, part, kern, sigma_a, length, noise, rows_f)
+        # the last row of each block's inverse factor, [-wᵀ, 1] / d, from one vector solve
+        d = chol[..., -1, -1]  # B x L x c
+        w = torch.linalg.solve_triangular(chol[..., :-1, :-1].mT, chol[..., -1, :-1].unsqueeze(-1), upper=True)
+        w = w[..., 0]  # B x L x c x m
+        rv = torch.where(valid, resid[..., safe], 0.0)  # B x L x c x M
+        z = (rv[..., -1] - (w * rv[..., :-1]).sum(-1)) / d
         quad = quad + z.square().sum(-1)
-        log_det = log_det + 2.0 * chol[..., -1, -1].log().sum(-1)
+        log_det = log_det + 2.0 * d.log().sum(-1)
         if r:
+            rows_l = rows_f[:, None]  # B x 1 x c x M x r
+            u = (rows_l[..., -1, :] - (w.unsqueeze(-2) @ rows_l[..., :-1, :])[..., 0, :]) / d[..., None]
             gram = gram + u.mT @ u
             proj = proj + (u.mT @ z.unsqueeze(-1))[..., 0]
         failed |= bad
@@ -161,19 +164,20 @@ def log_density(
         inner = gram + torch.eye(r, dtype=gram.dtype, device=gram.device)
         chol_i = torch.linalg.cholesky(inner)
         log_det = log_det + 2.0 * chol_i.diagonal(dim1=-2, dim2=-1).log().sum(-1)
-        w = torch.linalg.solve_triangular(chol_i, proj.unsqueeze(-1), upper=False)[..., 0]
-        quad = quad - w.square().sum(-1)
+        v = torch.linalg.solve_triangular(chol_i, proj.unsqueeze(-1), upper=False)[..., 0]
+        quad = quad - v.square().sum(-1)
     total = -0.5 * (quad + log_det + n * LOG_2PI).sum(-1)
     return torch.where(failed, -torch.inf, total)
 
 
 def error_note(n: int, rank: int) -> str:
-    """The measured error of the full-scale form with ``rank`` pivots, for a warning."""
-    if rank >= 512:
-        return ("|error| <= 0.25 nat at 2,500 points with sigma_m = 0.05 and up to 1.3 nat with sigma_m = 0 "
-                "and sigma_e = 0.05 µε (lengths of 1-10 pitches); at 10^4 points, for lengths of 2-20 "
-                "pitches and sigma_e = 0.05 µε, 1.5-11 nat with sigma_m = 0.05 and up to 1,430 nat "
-                "(squared exponential, 2 pitches) with sigma_m = 0, growing with n")
-    return (f"an unmeasured amount at rank {rank} (capped by memory at {n} points, FACTOR_BYTES), "
-            "larger than at rank 512 (up to 1,430 nat at 10^4 points); at rank 0 (plain Vecchia) it is "
-            "tens to hundreds of nats once l spans many pitches")
+    """The measured error of the full-scale form whose rank is capped at ``rank``, for a warning."""
+    note = ("measured at 10^4 points with sigma_a = 5 µε and sigma_e = 0.05 µε (the priors' hardest corner): "
+            "within 0.05 nat where the pivots resolve the kernel to 1e-3 of the noise (squared exponential "
+            "at l >= 0.2 x field, Matérn 5/2 at the field's size with sigma_m = 0.05); elsewhere, at the cap of "
+            "512 pivots and 30 neighbours, 0.3-27 nat at lengths of 2-100 pitches and up to 1,510 nat "
+            "(squared exponential, 2 pitches, sigma_m = 0)")
+    if rank < fullscale_choice.RANK_MAX:
+        note += (f"; at {n} points the rank is capped at {rank} by memory (FACTOR_BYTES), so where the pivots "
+                 "do not resolve the kernel the error is larger by an unmeasured amount")
+    return note

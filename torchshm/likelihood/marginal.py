@@ -28,7 +28,7 @@ import torch
 from torch import Tensor
 
 from torchshm.kernels import Kernel
-from torchshm.likelihood import fullscale, statespace, upscaled, vecchia
+from torchshm.likelihood import fullscale, fullscale_choice, statespace, upscaled, vecchia
 from torchshm.likelihood.cholesky import cholesky_with_jitter
 
 logger = logging.getLogger(__name__)
@@ -42,10 +42,11 @@ STATE_SPACE_FROM = 1000
 #: full-scale (low rank + Vecchia) form: below it the exact dense path costs at most a few
 #: seconds per evaluation
 VECCHIA_FROM = 5000
-#: neighbours and pivots of the full-scale form of ``"auto"`` (``docs/likelihood.md``), capped
-#: by memory (:func:`torchshm.likelihood.fullscale.neighbours_for`, ``rank_for``)
-FULLSCALE_NEIGHBOURS = 30
-FULLSCALE_RANK = 512
+#: the most neighbours and pivots of the full-scale form (chosen per call up to these,
+#: :mod:`torchshm.likelihood.fullscale_choice`; ``docs/likelihood.md``), capped by memory
+#: (:func:`torchshm.likelihood.fullscale.neighbours_for`, ``rank_for``)
+FULLSCALE_NEIGHBOURS = fullscale_choice.NEIGHBOURS_MAX
+FULLSCALE_RANK = fullscale_choice.RANK_MAX
 #: largest dense covariance batch [bytes] built and factorised at once when sampling
 SAMPLE_CHUNK_BYTES = 2**21
 #: share of the physical memory that dense covariances may take before they are refused
@@ -117,9 +118,11 @@ def choose_method(
             rank = fullscale.rank_for(n, FULLSCALE_RANK)
             logger.warning(
                 "%d points per load case of a %d-D field: the likelihood is the full-scale "
-                "approximation (rank %d + Vecchia with %d neighbours), not the exact density (its error: %s); "
+                "approximation (low rank of at most %d pivots + Vecchia with %d to %d neighbours, chosen "
+                "per call from the kernel's length and the noise), not the exact density (its error: %s); "
                 "see docs/likelihood.md",
-                n, dim, rank, fullscale.neighbours_for(n, FULLSCALE_NEIGHBOURS), fullscale.error_note(n, rank),
+                n, dim, rank, fullscale.neighbours_for(n, fullscale_choice.NEIGHBOURS_RESOLVED),
+                fullscale.neighbours_for(n, FULLSCALE_NEIGHBOURS), fullscale.error_note(n, rank),
             )
         return "fullscale"
     need, have = 2 * 8 * n * n, _physical_memory()
@@ -209,9 +212,7 @@ class Eq21:
         if self.method == "vecchia":
             return vecchia.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length)
         if self.method == "fullscale":
-            n = self.x.shape[0]
-            return fullscale.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length,
-                                         fullscale.neighbours_for(n, FULLSCALE_NEIGHBOURS), FULLSCALE_RANK)
+            return fullscale.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length)
         if self._shared_noise:
             noise = noise[:, :1]  # identical for every load case: one factorisation
         chol, failed = cholesky_with_jitter(covariance(self.x, self.kern, self.sigma_a, self.length, noise))

@@ -150,8 +150,9 @@ def _factor_blocks(
     Args:
         plan: the Vecchia plan; part: its rows (`c` of them).
         sigma_a: `B` scales [µε]; length: `B` lengths [m]; noise: `B x L x n` ordered diagonal [µε²].
-        factor: `B x n x r` low-rank factor ``F`` (Vecchia order) whose ``F Fᵀ`` is taken off the
-            kernel (the residual covariance of :mod:`torchshm.likelihood.fullscale`), or None.
+        factor: `B x c x M x r` rows of the low-rank factor ``F`` (Vecchia order) in the blocks of
+            ``part`` (zero in missing slots), whose ``F Fᵀ`` is taken off the kernel (the
+            residual covariance of :mod:`torchshm.likelihood.fullscale`), or None.
 
     Returns:
         ``(chol, valid, safe, failed)``: `B x L x c x M x M` factors, `c x M` true where a slot
@@ -168,8 +169,7 @@ def _factor_blocks(
     corr = scale * kern.correlation(dist, length[:, None, None])  # B x c x T
     var = scale[..., None]  # B x 1 x 1 (x c x M below)
     if factor is not None:  # residual of the low-rank part: K - F Fᵀ
-        rows_f = torch.where(valid[..., None], factor[:, safe], 0.0)  # B x c x M x r
-        gram = rows_f @ rows_f.mT  # B x c x M x M
+        gram = factor @ factor.mT  # B x c x M x M
         corr = corr - gram[..., low[0], low[1]]
         var = var - gram.diagonal(dim1=-2, dim2=-1)[:, None]  # B x 1 x c x M
     if part.start < size:  # only the first m rows have missing slots
