@@ -1,23 +1,26 @@
-"""Global exploration: no region of the box may still hide posterior mass the emulator cannot rule out.
+"""Global exploration: no region of the box may hide posterior mass the emulator cannot rule out.
 
 The batch rule (:mod:`.acquisition`) and the mode search (:mod:`.modes`) look where the emulated
 posterior already is. A mode the emulator has never seen (no run near it) has an emulated log
 joint far below the found one, so neither goes there and the stop rule, which compares the
 chains of successive rounds, is satisfied. PyVBMC's and GPry's acquisitions have the same blind
 spot: both weight the emulator's uncertainty by the emulated density (PyVBMC: the integrand's
-sd ``σ(x) exp(μ(x))``; GPry: ``exp(2ζ μ(x)) σ(x)``, ζ = d^-0.85), so a region 200 nats below the
-best is never visited.
+sd ``σ(x) exp(μ(x))``; GPry: ``exp(2ζ μ(x)) σ(x)``, ζ = d^-0.85), so a region 200 nats below
+the best is never visited.
 
 Each round therefore scores a scrambled Sobol set of :data:`N_SOBOL` points of the plausible box
-of the physical parameters (the other parameters those of the best walker) by an upper
-confidence bound of the emulated log joint, ``μ(x) + κ s(x)``, with ``s`` the log-likelihood sd
-that the emulator error causes (:meth:`EmulatedLogJoint.emulator_share`) and κ = :data:`KAPPA`
-(a one-sided 3-sd bound, as GP-UCB's ``sqrt(β)`` for a few thousand candidates). A point is
-**unresolved** when the emulator's mean puts it well outside the posterior (``μ`` more than the
-straggler gap, :func:`.sampling.straggler_gap`, below the best walker) but its upper bound does
-not (``μ + κ s`` within that gap): it might hold a mode. While any point is unresolved, one run of
-each batch goes to the unresolved point of highest upper bound, and the stop rule does not hold,
-so a run that reaches its cap with an unresolved point is reported as not converged.
+of the physical parameters (the other parameters those of the best walker) by
+``z = (μ(x) - level) / s(x)``: ``μ`` the emulated log joint, ``level`` the best one less the
+straggler gap (:func:`.sampling.straggler_gap`), ``s`` the sd of the log-likelihood that the
+emulator error causes there (:meth:`EmulatedLogJoint.value_and_sd`, which holds far from the
+posterior too) times the emulator's record at earlier exploration runs
+(:func:`explore_calibration`). A point below the level is **unresolved** when ``z >= -κ``,
+κ = :data:`KAPPA` (a one-sided 3-sd upper confidence bound ``μ + κ s``, which a calibrated
+Gaussian error exceeds once in 740): it might hold a mode. While any point is unresolved, one
+run of each batch (all but one once the rest of the stop rule holds) goes to the unresolved
+points (:func:`exploration_batch`) and the stop rule does not hold, so a run that reaches its
+cap with an unresolved point says it did not converge. The best Sobol points also start the
+mode search, so a mode that an exploration run revealed gets walkers.
 """
 
 from __future__ import annotations
@@ -120,24 +123,25 @@ def exploration_batch(scan: Exploration, emulator: FieldEmulator, theta_p: np.nd
 
 
 def explore_calibration(log_joint: EmulatedLogJoint, rows: np.ndarray, outputs: np.ndarray,
-                        ) -> float | None:
+                        default: float = 1.0) -> float:
     """How far the emulator of the round that chose them was off at exploration runs.
 
     Args:
         log_joint: the emulated log joint that chose the rows (not trained on the runs).
         rows: `b x D` the exploration rows.
         outputs: `b x L x n` the runs' strains [µε] at the measured readings (NaN: failed).
+        default: the value without a successful run (the last one known).
 
     Returns:
-        ``sqrt(2 mean(max(0, e)²))`` with ``e = (ℓ_run - μ) / s`` over the successful runs, the
-        root mean square of the errors in the direction that matters (a run better than
-        predicted: a region wrongly ruled out), 1 for a calibrated Gaussian error; ``ℓ_run`` is
-        the log joint of the run's own strains, ``μ`` and ``s`` as in :func:`explore`. None
-        without a successful run.
+        ``max(1, sqrt(2 mean(max(0, e)²)))`` with ``e = (ℓ_run - μ) / s`` over the successful
+        runs: the root mean square of the errors in the direction that matters (a run better
+        than predicted: a region wrongly ruled out), 1 for a calibrated Gaussian error;
+        ``ℓ_run`` is the log joint of the run's own strains, ``μ`` and ``s`` as in
+        :func:`explore`.
     """
     ok = np.isfinite(outputs.reshape(outputs.shape[0], -1)).all(-1)
     if not ok.any():
-        return None
+        return default
     rows = rows[ok]
     mean, sd = log_joint.value_and_sd(rows)
     theta = torch.as_tensor(rows, dtype=torch.float64)
@@ -145,4 +149,6 @@ def explore_calibration(log_joint: EmulatedLogJoint, rows: np.ndarray, outputs: 
     run = run + np.asarray(log_joint.problem.log_prior(rows), dtype=np.float64).reshape(-1)
     e = (run - mean) / np.maximum(sd, 1e-12)
     e = e[np.isfinite(e)]
-    return float(np.sqrt(2.0 * np.mean(np.square(np.maximum(e, 0.0))))) if e.size else None
+    if not e.size:
+        return default
+    return max(1.0, float(np.sqrt(2.0 * np.mean(np.square(np.maximum(e, 0.0))))))

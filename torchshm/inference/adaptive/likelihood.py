@@ -96,8 +96,8 @@ class EmulatedLogJoint:
         Unlike :meth:`emulator_share` (whose sd assumes the residuals of a fit, ``r_j² ≈ s_j²``)
         this holds far from the posterior too: the delta-method sd of the diagonal Gaussian
         log-likelihood ``-½ Σ_j r_j² / s_j²`` with ``r = y - η``, ``η ~ N(m, v)``:
-        ``sqrt(Σ_j v_j r_j² / s_j⁴ + ½ Σ_j v_j² / s_j⁴)``, where the emulator mean's residuals
-        ``r_j = y_j - m_j`` may be far larger than the noise.
+        ``sqrt(Σ_j v_j r_j² / s_j⁴ + ½ Σ_j v_j² / s_j⁴)``, where the emulator mean's
+        residuals ``r_j = y_j - m_j`` may be far larger than the noise.
         """
         theta = np.atleast_2d(np.asarray(theta, dtype=np.float64))
         out = np.asarray(self.problem.log_prior(theta), dtype=np.float64).reshape(-1)

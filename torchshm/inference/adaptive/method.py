@@ -8,14 +8,16 @@ The steps, one round at a time:
 2. fit the field emulator of the measured strains over θp (:mod:`.field`);
 3. sample the posterior of all parameters on the emulated likelihood, which carries the
    emulator's variance (:mod:`.likelihood`, :mod:`.sampling`; no model run), the walkers first
-   spread over the modes found by a multi-start search (:mod:`.modes`);
+   spread over the modes found by a multi-start search (:mod:`.modes`), after a Sobol set of
+   the box is scored for points the emulator cannot rule out (:mod:`.explore`);
 4. check the stop rule: the total variation between this round's posterior and the previous
    one's is below ``tv_tol`` in ``patience`` successive rounds, the emulator causes less
-   than ``sd_tol`` nats of log-likelihood uncertainty on average over the posterior, and the
-   batch just run was predicted within ``check_tol`` nats (:mod:`.validation`); or the
-   budget of model runs is spent;
+   than ``sd_tol`` nats of log-likelihood uncertainty on average over the posterior, the
+   batch just run was predicted within ``check_tol`` nats (:mod:`.validation`) and no point
+   of the box is unresolved (:mod:`.explore`); or the budget of model runs is spent;
 5. otherwise choose the next batch where the emulator's uncertainty matters most under the
-   posterior (:mod:`.acquisition`) and go to 1.
+   posterior (:mod:`.acquisition`), with one run (all but one once the rest of the rule
+   holds) at unresolved points of the box, and go to 1.
 
 The returned :class:`~torchshm.inference.Posterior` has a mixture density fitted to a chain on
 the last emulator (``log_pdf``), draws and a log evidence by importance sampling from it
@@ -83,9 +85,10 @@ def run_emulator(
             below ``tv_tol`` in ``patience`` successive rounds...
         sd_tol: ...the emulator's log-likelihood sd, averaged over the posterior, is below
             ``sd_tol`` nats...
-        check_tol: ...and the last batch of runs, made at posterior draws before the emulator
+        check_tol: ...the last batch of runs, made at posterior draws before the emulator
             saw them, was within ``check_tol`` nats of the emulator's log-likelihood
-            (:mod:`.validation`).
+            (:mod:`.validation`), and no point of the plausible box may still hold a mode the
+            emulator cannot rule out (:mod:`.explore`).
         n_evidence: importance samples of the log evidence and the returned posterior draws.
         emulator_kernel: GP kernel of the field emulator, "matern52" or "rbf".
 
@@ -140,8 +143,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     previous: EmulatedLogJoint | None = None
     emulator: FieldEmulator | None = None
     prev_samples: np.ndarray | None = None
-    calm, converged, inflation, far_calibration = 0, False, 1.0, 1.0
-    far = np.zeros((0, dim))  # the exploration rows of the batch (:mod:`.explore`)
+    calm, converged, inflation, far_calibration, far = 0, False, 1.0, 1.0, np.zeros((0, dim))
     columns = ([names.index(n) for n in problem.physical_names if n in names],
                [i for i, n in enumerate(problem.physical_names) if n in names])
     n_modes = 1
@@ -160,16 +162,15 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                      else None)
             if check is not None and np.isfinite(check.calibration):
                 inflation = max(1.0, check.calibration)
-            if previous is not None and far.shape[0]:
-                record = explore_calibration(previous, far, outputs[len(batch_rows):])
-                far_calibration = far_calibration if record is None else max(1.0, record)
+            if previous is not None and far.shape[0]:  # the emulator's record at exploration runs
+                far_calibration = explore_calibration(previous, far, outputs[len(batch_rows):],
+                                                      far_calibration)
             emulator = FieldEmulator.fit(runs.theta_p, runs.outputs, x_index, loads, transform,
                                          emulator_kernel, previous=emulator)
             log_joint = EmulatedLogJoint(problem, emulator, inflation)
             steps = n_steps if r > 0 else 2 * n_steps
-            lp = log_joint(walkers)
-            scan = explore(log_joint, walkers[int(np.argmax(lp))], columns[0], plausible, rng,
-                           far_calibration)
+            scan = explore(log_joint, walkers[int(np.argmax(log_joint(walkers)))], columns[0],
+                           plausible, rng, far_calibration)
             walkers, n_modes = _spread(log_joint, walkers, runs, columns, hard, plausible, rng,
                                        scan.top)
             samples, walkers = sampling.run_chain(log_joint, walkers, steps, seed + 1000 * r,
