@@ -111,6 +111,27 @@ def explore(log_joint: EmulatedLogJoint, best: np.ndarray, columns: list[int],
     return Exploration(rows[open_], z[open_], margin, top)
 
 
+def with_modes(scan: Exploration, log_joint: EmulatedLogJoint, modes: np.ndarray,
+               calibration: float, sd_tol: float, kappa: float = KAPPA) -> Exploration:
+    """``scan`` with the secondary modes `K x D` of the mode search (best first) that the
+    emulator has not settled added first to its unresolved points: a mode whose upper bound
+    ``μ + κ s`` reaches the level of :func:`explore` while the emulator is uncertain there by
+    more than ``sd_tol`` nats (a mode seen through one run may be as heavy as the best one but
+    emulated far lower, so the chain would give it no walkers)."""
+    if modes.shape[0] < 2:
+        return scan
+    mean, sd = log_joint.value_and_sd(modes[1:])
+    sd = max(1.0, calibration) * np.maximum(sd, 1e-12)
+    level = float(log_joint(modes[:1])[0]) - straggler_gap(modes.shape[1])
+    z = (mean - level) / sd
+    open_ = np.flatnonzero((z >= -kappa) & (sd > sd_tol))
+    if not open_.size:
+        return scan
+    return Exploration(np.concatenate([modes[1:][open_], scan.rows]),
+                       np.concatenate([z[open_], scan.z]), max(scan.margin, float(z.max())),
+                       scan.top)
+
+
 def exploration_batch(scan: Exploration, emulator: FieldEmulator, theta_p: np.ndarray, k: int,
                       rng: np.random.Generator) -> np.ndarray:
     """Up to ``k`` rows `b x D` among the unresolved points (their θp ``theta_p`` `U x P`),

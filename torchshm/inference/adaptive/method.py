@@ -8,16 +8,14 @@ The steps, one round at a time:
 2. fit the field emulator of the measured strains over θp (:mod:`.field`);
 3. sample the posterior of all parameters on the emulated likelihood, which carries the
    emulator's variance (:mod:`.likelihood`, :mod:`.sampling`; no model run), the walkers first
-   spread over the modes found by a multi-start search (:mod:`.modes`), after a Sobol set of
-   the box is scored for points the emulator cannot rule out (:mod:`.explore`);
+   spread over the modes found by a multi-start search (:mod:`.modes`);
 4. check the stop rule: the total variation between this round's posterior and the previous
    one's is below ``tv_tol`` in ``patience`` successive rounds, the emulator causes less
    than ``sd_tol`` nats of log-likelihood uncertainty on average over the posterior, the
    batch just run was predicted within ``check_tol`` nats (:mod:`.validation`) and no point
    of the box is unresolved (:mod:`.explore`); or the budget of model runs is spent;
 5. otherwise choose the next batch where the emulator's uncertainty matters most under the
-   posterior (:mod:`.acquisition`), with one run (all but one once the rest of the rule
-   holds) at unresolved points of the box, and go to 1.
+   posterior (:mod:`.acquisition`), one run at unresolved points, and go to 1.
 
 The returned :class:`~torchshm.inference.Posterior` has a mixture density fitted to a chain on
 the last emulator (``log_pdf``), draws and a log evidence by importance sampling from it
@@ -38,7 +36,8 @@ import torch
 from torchshm.inference.adaptive import modes as mode_search
 from torchshm.inference.adaptive import sampling
 from torchshm.inference.adaptive.acquisition import choose_batch, design
-from torchshm.inference.adaptive.explore import explore, explore_calibration, exploration_batch
+from torchshm.inference.adaptive.explore import (explore, explore_calibration, exploration_batch,
+                                                  with_modes)
 from torchshm.inference.adaptive.field import FieldEmulator, model_transform
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, physical_columns
 from torchshm.inference.adaptive.runs import RunSet, run_batch
@@ -171,8 +170,9 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             steps = n_steps if r > 0 else 2 * n_steps
             scan = explore(log_joint, walkers[int(np.argmax(log_joint(walkers)))], columns[0],
                            plausible, rng, far_calibration)
-            walkers, n_modes = _spread(log_joint, walkers, runs, columns, hard, plausible, rng,
-                                       scan.top)
+            walkers, n_modes, modes = _spread(log_joint, walkers, runs, columns, hard,
+                                              plausible, rng, scan.top)
+            scan = with_modes(scan, log_joint, modes, far_calibration, sd_tol)
             samples, walkers = sampling.run_chain(log_joint, walkers, steps, seed + 1000 * r,
                                                   hop=n_modes > 1)
             pick = rng.choice(samples.shape[0], min(600, samples.shape[0]), False)
@@ -229,18 +229,19 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
 
 def _spread(log_joint: EmulatedLogJoint, walkers: np.ndarray, runs: RunSet,
             columns: tuple[list[int], list[int]], hard: np.ndarray, plausible: np.ndarray,
-            rng: np.random.Generator, extra: np.ndarray) -> tuple[np.ndarray, int]:
-    """The walkers spread over the modes of ``log_joint`` (:mod:`.modes`) and the number of
-    modes that hold walkers; ``extra`` `E x D` more starts of the mode search."""
+            rng: np.random.Generator, extra: np.ndarray) -> tuple[np.ndarray, int, np.ndarray]:
+    """The walkers spread over the modes of ``log_joint`` (:mod:`.modes`), the number of
+    modes that hold walkers and the modes `K x D`, best first; ``extra`` `E x D` more starts
+    of the mode search."""
     starts = mode_search.starts_from(log_joint, walkers, runs.theta_p, columns, plausible, rng)
-    starts = np.concatenate([starts, extra])
-    modes, values = mode_search.find_modes(log_joint, starts, hard, plausible)
+    modes, values = mode_search.find_modes(log_joint, np.concatenate([starts, extra]), hard,
+                                           plausible)
     if modes.shape[0] == 0:
-        return walkers, 1
+        return walkers, 1, modes
     gap = sampling.straggler_gap(walkers.shape[1])
     scale = plausible[:, 1] - plausible[:, 0]
     walkers = mode_search.spread_walkers(walkers, modes, values, gap, scale, rng)
-    return walkers, max(1, int((values >= values.max() - gap).sum()))
+    return walkers, max(1, int((values >= values.max() - gap).sum())), modes
 
 
 def default_cap(dim: int, n_initial: int, batch_size: int) -> int:
