@@ -89,6 +89,30 @@ class EmulatedLogJoint:
         values[np.isnan(values)] = -np.inf
         return values
 
+    def value_and_sd(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Log joint `B` of rows `B x D` (-inf outside the support) and the sd [nats] of the
+        log-likelihood that the emulator error causes there, from one prediction.
+
+        Unlike :meth:`emulator_share` (whose sd assumes the residuals of a fit, ``r_j² ≈ s_j²``)
+        this holds far from the posterior too: the delta-method sd of the diagonal Gaussian
+        log-likelihood ``-½ Σ_j r_j² / s_j²`` with ``r = y - η``, ``η ~ N(m, v)``:
+        ``sqrt(Σ_j v_j r_j² / s_j⁴ + ½ Σ_j v_j² / s_j⁴)``, where the emulator mean's
+        residuals ``r_j = y_j - m_j`` may be far larger than the noise.
+        """
+        theta = np.atleast_2d(np.asarray(theta, dtype=np.float64))
+        out = np.asarray(self.problem.log_prior(theta), dtype=np.float64).reshape(-1)
+        sd = np.zeros_like(out)
+        ok = np.isfinite(out)
+        if ok.any():
+            mean, var, rows = self.parts(theta[ok])
+            out[ok] += self.at(mean, var, rows)
+            data = self.data_variance(mean, rows)
+            residual = torch.nan_to_num(self.y - mean).square()
+            terms = (var * residual + 0.5 * var.square()) / data.square()
+            sd[ok] = (terms * self.valid.to(var.dtype)).sum((-1, -2)).sqrt().numpy()
+        out[~np.isfinite(out)] = -np.inf
+        return out, sd
+
     def emulator_share(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """How much the emulator's uncertainty matters at rows ``theta`` `B x D`.
 

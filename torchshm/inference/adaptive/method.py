@@ -11,11 +11,11 @@ The steps, one round at a time:
    spread over the modes found by a multi-start search (:mod:`.modes`);
 4. check the stop rule: the total variation between this round's posterior and the previous
    one's is below ``tv_tol`` in ``patience`` successive rounds, the emulator causes less
-   than ``sd_tol`` nats of log-likelihood uncertainty on average over the posterior, and the
-   batch just run was predicted within ``check_tol`` nats (:mod:`.validation`); or the
-   budget of model runs is spent;
+   than ``sd_tol`` nats of log-likelihood uncertainty on average over the posterior, the
+   batch just run was predicted within ``check_tol`` nats (:mod:`.validation`) and no point
+   of the box is unresolved (:mod:`.explore`); or the budget of model runs is spent;
 5. otherwise choose the next batch where the emulator's uncertainty matters most under the
-   posterior (:mod:`.acquisition`) and go to 1.
+   posterior (:mod:`.acquisition`), one run at unresolved points, and go to 1.
 
 The returned :class:`~torchshm.inference.Posterior` has a mixture density fitted to a chain on
 the last emulator (``log_pdf``), draws and a log evidence by importance sampling from it
@@ -36,6 +36,8 @@ import torch
 from torchshm.inference.adaptive import modes as mode_search
 from torchshm.inference.adaptive import sampling
 from torchshm.inference.adaptive.acquisition import choose_batch, design
+from torchshm.inference.adaptive.explore import (explore, explore_calibration, exploration_batch,
+                                                  with_modes)
 from torchshm.inference.adaptive.field import FieldEmulator, model_transform
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, physical_columns
 from torchshm.inference.adaptive.runs import RunSet, run_batch
@@ -82,9 +84,10 @@ def run_emulator(
             below ``tv_tol`` in ``patience`` successive rounds...
         sd_tol: ...the emulator's log-likelihood sd, averaged over the posterior, is below
             ``sd_tol`` nats...
-        check_tol: ...and the last batch of runs, made at posterior draws before the emulator
+        check_tol: ...the last batch of runs, made at posterior draws before the emulator
             saw them, was within ``check_tol`` nats of the emulator's log-likelihood
-            (:mod:`.validation`).
+            (:mod:`.validation`), and no point of the plausible box may still hold a mode the
+            emulator cannot rule out (:mod:`.explore`).
         n_evidence: importance samples of the log evidence and the returned posterior draws.
         emulator_kernel: GP kernel of the field emulator, "matern52" or "rbf".
 
@@ -139,7 +142,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     previous: EmulatedLogJoint | None = None
     emulator: FieldEmulator | None = None
     prev_samples: np.ndarray | None = None
-    calm, converged, inflation = 0, False, 1.0
+    calm, converged, inflation, far_calibration, far = 0, False, 1.0, 1.0, np.zeros((0, dim))
     columns = ([names.index(n) for n in problem.physical_names if n in names],
                [i for i, n in enumerate(problem.physical_names) if n in names])
     n_modes = 1
@@ -153,16 +156,23 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             t_round = time.perf_counter()
             n_before = runs.theta_p.shape[0]
             new, outputs = run_batch(problem, runs, batch, n_jobs, executor)
-            check = (check_batch(previous, emulator, batch_rows, outputs)
+            check = (check_batch(previous, emulator, batch_rows, outputs[:len(batch_rows)])
                      if previous is not None and emulator is not None and batch_rows is not None
                      else None)
             if check is not None and np.isfinite(check.calibration):
                 inflation = max(1.0, check.calibration)
+            if previous is not None and far.shape[0]:  # the emulator's record at exploration runs
+                far_calibration = explore_calibration(previous, far, outputs[len(batch_rows):],
+                                                      far_calibration)
             emulator = FieldEmulator.fit(runs.theta_p, runs.outputs, x_index, loads, transform,
                                          emulator_kernel, previous=emulator)
             log_joint = EmulatedLogJoint(problem, emulator, inflation)
             steps = n_steps if r > 0 else 2 * n_steps
-            walkers, n_modes = _spread(log_joint, walkers, runs, columns, hard, plausible, rng)
+            scan = explore(log_joint, walkers[int(np.argmax(log_joint(walkers)))], columns[0],
+                           plausible, rng, far_calibration)
+            walkers, n_modes, modes = _spread(log_joint, walkers, runs, columns, hard,
+                                              plausible, rng, scan.top)
+            scan = with_modes(scan, log_joint, modes, far_calibration, sd_tol)
             samples, walkers = sampling.run_chain(log_joint, walkers, steps, seed + 1000 * r,
                                                   hop=n_modes > 1)
             pick = rng.choice(samples.shape[0], min(600, samples.shape[0]), False)
@@ -173,33 +183,40 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             share, sd = log_joint.emulator_share(draws)
             calm = calm + 1 if tv < tv_tol else 0
             checked = check is not None and check.passed(check_tol)
-            converged = calm >= patience and float(sd.mean()) < sd_tol and checked
+            settled = calm >= patience and float(sd.mean()) < sd_tol and checked
+            converged = settled and scan.n_unresolved == 0
             row = {"round": float(r), "n_runs": float(len(batch)), "n_new_runs": float(new),
                    "n_model_evaluations": float(runs.n_new), "n_emulator_runs":
                    float(runs.theta_p.shape[0]), "tv": tv, "mmtv": mmtv,
                    "n_modes": float(n_modes), "emulator_share": float(share.mean()), "emulator_share_max": float(share.max()),
                    "emulator_loglik_sd": float(sd.mean()), "emulator_inflation": inflation,
                    "check_loglik_error": check.max_error if check is not None else np.nan,
+                   "n_unresolved": float(scan.n_unresolved), "explore_margin": scan.margin,
+                   "explore_calibration": far_calibration,
                    "wall_time_s": time.perf_counter() - t_round}
             row.update(marginal_scalars(names, samples))
             trace.log(row)
             reused = runs.theta_p.shape[0] - n_before - new
             logger.info("round %d: %d runs (%d new, %d from the store; %d new in all), TV %.3f, "
-                        "emulator log-likelihood sd %.3f nats, last batch off by %.3g nats",
-                        r, len(batch), new, max(0, reused), runs.n_new, tv, sd.mean(),
-                        row["check_loglik_error"])
+                        "emulator log-likelihood sd %.3f nats, last batch off by %.3g nats, "
+                        "%d unresolved points of the box", r, len(batch), new, max(0, reused),
+                        runs.n_new, tv, sd.mean(), row["check_loglik_error"], scan.n_unresolved)
             rounds.append({**row, "batch": np.asarray(batch).tolist()})
             left = budget - runs.n_new
             if converged or left <= 0:
                 break
-            want = min(batch_size, left)
+            want = min(batch_size, left)  # exploration: one run, all but one once settled
+            far = exploration_batch(scan, emulator, physical_columns(problem, scan.rows),
+                                    max(1, want - 1) if settled else 1, rng)
+            want -= far.shape[0]
             batch, chosen = choose_batch(emulator, physical_columns(problem, draws), sd**2, want, rng)
             if len(chosen) < want:  # nothing left to learn by the rule: test at random draws
                 extra = rng.choice(np.setdiff1d(np.arange(draws.shape[0]), chosen),
                                    want - len(chosen), replace=False)
                 chosen = np.concatenate([chosen, extra])
                 batch = physical_columns(problem, draws[chosen])
-            batch_rows = draws[chosen]
+            batch_rows = draws[chosen]  # the posterior part, which the next round checks
+            batch = np.concatenate([batch, physical_columns(problem, far)])
             previous, prev_samples = log_joint, samples
     finally:
         trace.close()
@@ -212,17 +229,19 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
 
 def _spread(log_joint: EmulatedLogJoint, walkers: np.ndarray, runs: RunSet,
             columns: tuple[list[int], list[int]], hard: np.ndarray, plausible: np.ndarray,
-            rng: np.random.Generator) -> tuple[np.ndarray, int]:
-    """The walkers spread over the modes of ``log_joint`` (:mod:`.modes`) and the number of
-    modes that hold walkers."""
+            rng: np.random.Generator, extra: np.ndarray) -> tuple[np.ndarray, int, np.ndarray]:
+    """The walkers spread over the modes of ``log_joint`` (:mod:`.modes`), the number of
+    modes that hold walkers and the modes `K x D`, best first; ``extra`` `E x D` more starts
+    of the mode search."""
     starts = mode_search.starts_from(log_joint, walkers, runs.theta_p, columns, plausible, rng)
-    modes, values = mode_search.find_modes(log_joint, starts, hard, plausible)
+    modes, values = mode_search.find_modes(log_joint, np.concatenate([starts, extra]), hard,
+                                           plausible)
     if modes.shape[0] == 0:
-        return walkers, 1
+        return walkers, 1, modes
     gap = sampling.straggler_gap(walkers.shape[1])
     scale = plausible[:, 1] - plausible[:, 0]
     walkers = mode_search.spread_walkers(walkers, modes, values, gap, scale, rng)
-    return walkers, max(1, int((values >= values.max() - gap).sum()))
+    return walkers, max(1, int((values >= values.max() - gap).sum())), modes
 
 
 def default_cap(dim: int, n_initial: int, batch_size: int) -> int:
