@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import logging
 import time
-import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -39,6 +38,7 @@ from torchshm.inference.adaptive.acquisition import choose_batch, design
 from torchshm.inference.adaptive.explore import (explore, explore_calibration, exploration_batch,
                                                   with_modes)
 from torchshm.inference.adaptive.field import FieldEmulator, model_transform
+from torchshm.inference.adaptive.final import finish
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, physical_columns
 from torchshm.inference.adaptive.runs import RunSet, run_batch
 from torchshm.inference.adaptive.validation import check_batch
@@ -72,7 +72,8 @@ def run_emulator(
         n_jobs: local worker processes for a batch (joblib; needs a store when != 1).
         executor: a submitit executor (:func:`torchshm.storage.make_executor`; needs a store).
         n_initial: size of the initial design (None: the smallest multiple of ``batch_size``
-            of at least ``2 P + 1``).
+            of at least ``2 P + 1`` and ``2 batch_size``: with 5 runs for P = 2 the first
+            checked batch could agree with an emulator that had never seen the posterior).
         n_walkers: emcee walkers (None: ``max(96, 12 D)``: a likelihood call costs about the
             same for 10 or 50 walkers and emcee makes two calls per step, so many walkers and
             few steps are cheaper than the reverse).
@@ -121,7 +122,8 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     names, dim = list(problem.names), len(problem.names)
     n_phys = len(problem.physical_names)
     batch_size = _positive("batch_size", batch_size)
-    n_initial = _positive("n_initial", n_initial or batch_size * -(-(2 * n_phys + 1) // batch_size))
+    n_initial = _positive("n_initial", n_initial
+                          or batch_size * max(2, -(-(2 * n_phys + 1) // batch_size)))
     if max_model_evaluations is None:
         max_model_evaluations = default_cap(dim, n_initial, batch_size)
     budget = _positive("max_model_evaluations", max_model_evaluations, minimum=0)
@@ -153,7 +155,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
         logger.info("resumed: %d runs %s", n_reused, where)
     try:
         for r in range(budget + 1):
-            t_round = time.perf_counter()
+            t_round, c_round = time.perf_counter(), time.process_time()
             n_before = runs.theta_p.shape[0]
             new, outputs = run_batch(problem, runs, batch, n_jobs, executor)
             check = (check_batch(previous, emulator, batch_rows, outputs[:len(batch_rows)])
@@ -193,7 +195,8 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                    "check_loglik_error": check.max_error if check is not None else np.nan,
                    "n_unresolved": float(scan.n_unresolved), "explore_margin": scan.margin,
                    "explore_calibration": far_calibration,
-                   "wall_time_s": time.perf_counter() - t_round}
+                   "wall_time_s": time.perf_counter() - t_round,
+                   "cpu_time_s": time.process_time() - c_round}
             row.update(marginal_scalars(names, samples))
             trace.log(row)
             reused = runs.theta_p.shape[0] - n_before - new
@@ -220,7 +223,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             previous, prev_samples = log_joint, samples
     finally:
         trace.close()
-    return _posterior(problem, log_joint, walkers, samples, rounds, runs, trace, converged, seed, {
+    return finish(problem, log_joint, walkers, samples, rounds, runs, trace, converged, seed, {
         "n_final_steps": final_steps, "n_walkers": n_walkers, "n_evidence": n_evidence,
         "n_reused_runs": n_reused, "budget": budget, "t0": t0, "hard": hard,
         "plausible": plausible, "hop": n_modes > 1,
@@ -248,44 +251,6 @@ def default_cap(dim: int, n_initial: int, batch_size: int) -> int:
     """The default cap on model runs: PyVBMC's budget, 50 (D + 2), for `D` inferred parameters
     (at least the initial design and two batches)."""
     return max(50 * (dim + 2), n_initial + 2 * batch_size)
-
-
-def _posterior(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray,
-               last: np.ndarray,
-               rounds: list[dict[str, Any]], runs: RunSet, trace: RunTrace, converged: bool,
-               seed: int, extra: dict[str, Any]) -> Posterior:
-    """Final chain (the last round's samples ``last`` `S x D` and ``n_final_steps`` more),
-    mixture density and evidence on the last emulator; the Posterior."""
-    chain = last  # the last round's chain is on this same emulator: continue it
-    if extra["n_final_steps"] > 0:
-        more, _ = sampling.run_chain(log_joint, walkers, extra["n_final_steps"], seed + 7,
-                                     hop=extra["hop"])
-        chain = np.concatenate([last, more])
-    vp = sampling.fit_density(chain, extra["hard"], extra["plausible"], seed)
-    log_z, log_z_sd, ess, samples = sampling.importance(log_joint, vp, extra["n_evidence"], seed)
-    if not converged:
-        warnings.warn(
-            f"method='emulator' stopped at its cap of {extra['budget']} model runs before "
-            f"the stop rule held (last round: TV {rounds[-1]['tv']:.3f}, emulator "
-            f"log-likelihood sd {rounds[-1]['emulator_loglik_sd']:.3f} nats, last batch off by "
-            f"{rounds[-1]['check_loglik_error']:.3g} nats); the posterior may still move and "
-            "is widened by the emulator's own uncertainty: raise max_model_evaluations",
-            RuntimeWarning, stacklevel=3)
-    diagnostics = {
-        "rounds": rounds, "n_rounds": len(rounds), "n_failed_evaluations": runs.n_failed,
-        "n_reused_runs": extra["n_reused_runs"], "n_emulator_runs": int(runs.theta_p.shape[0]),
-        "evidence_ess": ess, "n_walkers": extra["n_walkers"],
-        "wall_time_s": time.perf_counter() - extra["t0"],
-    }
-    logger.info("emulator: %d runs from the store, %d new, %d rounds, %s", extra["n_reused_runs"],
-                runs.n_new, len(rounds), "converged" if converged else "NOT converged")
-    vp.rng = np.random.default_rng([seed, 13])
-    return Posterior(
-        names=list(problem.names), method="emulator", samples=samples, log_evidence=log_z,
-        log_evidence_sd=log_z_sd, n_model_evaluations=runs.n_new, converged=converged,
-        diagnostics=diagnostics, priors=dict(getattr(problem, "priors", {}) or {}),
-        history=trace.history(), variational=vp, n_chains=1, problem=problem,
-    )
 
 
 def _loads(problem: Problem) -> torch.Tensor:
