@@ -69,6 +69,8 @@ def main() -> None:
         "load": os.getloadavg()[0], "threads": args.threads, "model_runs": post.n_model_evaluations,
         "rounds": rounds, "converged": post.converged, "cpu_s": round(cpu, 2),
         "cpu_per_round_s": round(cpu / max(rounds, 1), 2), "wall_s": round(wall, 2),
+        "round_cpu_s": [round(r["cpu_time_s"], 2) for r in post.diagnostics["rounds"]],
+        "final_cpu_s": round(post.diagnostics["final_cpu_time_s"], 2),
         "steps_cpu_s": {k: round(v, 2) for k, v in parts.items()},
         "E_c": [round(float(post.summary()["E_c"].mean), 3), round(float(post.summary()["E_c"].sd), 3)],
         "log_evidence": round(float(post.log_evidence), 3),
