@@ -96,3 +96,29 @@ def test_unconverged_and_warnings_survive_the_file_and_an_old_file_has_none(tmp_
     assert torchshm.load_posterior(tmp_path / "p.nc").warnings == []
     clean = Posterior(["E", "sigma_a"], "emcee", samples, converged=True)
     assert clean.summary().to_csv().startswith("name,mean")  # a clean run's CSV is unchanged
+
+
+def test_posterior_mass_beyond_every_model_run_is_flagged_and_mass_among_them_is_not() -> None:
+    from torchshm.inference.adaptive.final import beyond_runs
+
+    rng = np.random.default_rng(2)
+    box = np.array([[10.0, 60.0], [0.0, 12.0], [0.0, 5.0]])  # E, log10_k, sigma_a
+    priors = {**PRIORS, "log10_k": torchshm.Uniform(0.0, 12.0)}
+    runs = np.column_stack([rng.uniform(20.0, 50.0, 20), rng.uniform(0.5, 10.0, 20)])
+    lo, hi = runs[:, 1].min(), runs[:, 1].max()
+    flat_k = np.column_stack([rng.normal(35.0, 1.0, 10_000), rng.uniform(0.0, 12.0, 10_000),
+                              rng.gamma(20.0, 0.05, 10_000)])
+    found = beyond_runs(flat_k, ["E", "log10_k", "sigma_a"], ["E", "log10_k"], runs, box)
+    expected = (max(0.0, lo - 0.6) + max(0.0, 12.0 - hi - 0.6)) / 12.0  # uniform: the share of range
+    assert found["beyond_runs"]["log10_k"] == pytest.approx(expected, abs=0.01)
+    assert found["beyond_runs"]["E"] == 0.0 and found["runs_range"]["log10_k"] == [lo, hi]
+    post = Posterior(["E", "log10_k", "sigma_a"], "emulator", flat_k, converged=True,
+                     diagnostics=found, priors=priors)
+    assert warning_tags(check_fit(post).warnings) == "EXTRAPOLATION"
+    inside = flat_k.copy()
+    inside[:, 1] = rng.uniform(lo, hi, 10_000)
+    found = beyond_runs(inside, ["E", "log10_k", "sigma_a"], ["E", "log10_k"], runs, box)
+    assert found["beyond_runs"]["log10_k"] == 0.0
+    assert "EXTRAPOLATION" not in warning_tags(check_fit(Posterior(
+        ["E", "log10_k", "sigma_a"], "emulator", inside, converged=True, diagnostics=found,
+        priors=priors)).warnings)

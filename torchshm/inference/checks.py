@@ -7,6 +7,8 @@ fix, and to ``post.diagnostics`` the numbers behind them. No check runs the forw
 - ``FAILED RUNS`` / ``STUCK WALKERS``: model runs that failed, emcee walkers that barely moved.
 - ``PRIOR BOUND``: posterior mass piled at a finite hard bound of a parameter
   (:func:`bound_shares`).
+- ``EXTRAPOLATION``: an emulator's posterior reaching past every model run
+  (:func:`extrapolation_lines`).
 - ``NOISE MODEL``: the measured strains contradict the assumed noise levels
   (:mod:`torchshm.inference.noise_check`).
 """
@@ -31,6 +33,8 @@ if TYPE_CHECKING:
 EDGE = 0.02
 #: warn when the posterior puts this many times what a flat posterior would (``EDGE``) there
 BOUND_FACTOR = 3.0
+#: warn when this share of an emulator's posterior lies beyond every model run of a parameter
+EXTRAPOLATION_SHARE = 0.05
 
 
 def check_fit(post: Posterior) -> Posterior:
@@ -44,6 +48,7 @@ def check_fit(post: Posterior) -> Posterior:
         post.diagnostics[f"bound_share/{name}/{end}"] = share
         if share >= BOUND_FACTOR * EDGE:
             lines.append(bound_line(name, end, bound, share))
+    lines += extrapolation_lines(post)
     try:
         noise_line, numbers = noise_check(post)
     except Exception as err:  # noqa: BLE001 - a check must never cost a finished posterior
@@ -82,6 +87,22 @@ def run_lines(post: Posterior) -> list[str]:
         out.append(f"STUCK WALKERS: {stuck} of {d.get('n_walkers', '?')} emcee walkers barely "
                    "moved (diagnostics['stuck_walkers']); their samples bias the posterior: run "
                    "more steps or start the walkers elsewhere")
+    return out
+
+
+def extrapolation_lines(post: Posterior) -> list[str]:
+    """``EXTRAPOLATION`` lines: an emulator's posterior reaching past every model run
+    (``diagnostics["beyond_runs"]``, :func:`torchshm.inference.adaptive.final.beyond_runs`)."""
+    d, out = post.diagnostics, []
+    ranges = d.get("runs_range", {})
+    for name, share in (d.get("beyond_runs") or {}).items():
+        if share >= EXTRAPOLATION_SHARE:
+            low, high = ranges.get(name, (math.nan, math.nan))
+            out.append(f"EXTRAPOLATION: {share:.0%} of the posterior of {name} lies beyond every "
+                       f"model run ({name} {low:.4g} to {high:.4g}): there the emulator extends "
+                       "what it saw and can miss a peak it never ran. Fix: rerun on the same "
+                       "store with a larger n_initial, or a plausible box that covers where the "
+                       "posterior lies (finished runs are reused)")
     return out
 
 
@@ -148,5 +169,5 @@ def warning_tags(lines: list[str] | tuple[str, ...], parameters: bool = True) ->
     return "; ".join(tags)
 
 
-__all__ = ["BOUND_FACTOR", "EDGE", "bound_line", "bound_shares", "check_fit",
-           "convergence_line", "run_lines", "warning_tags"]
+__all__ = ["BOUND_FACTOR", "EDGE", "EXTRAPOLATION_SHARE", "bound_line", "bound_shares",
+           "check_fit", "convergence_line", "extrapolation_lines", "run_lines", "warning_tags"]

@@ -20,6 +20,8 @@ if TYPE_CHECKING:
     from torchshm.problem import Problem
 
 logger = logging.getLogger("torchshm.inference.adaptive.method")
+#: a draw is beyond the runs when it lies this share of its parameter's range outside them
+BEYOND_MARGIN = 0.05
 
 
 def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray,
@@ -50,6 +52,8 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray,
         "evidence_ess": ess, "n_walkers": extra["n_walkers"],
         "wall_time_s": time.perf_counter() - extra["t0"],
         "final_cpu_time_s": time.process_time() - cpu,
+        **beyond_runs(np.asarray(samples), list(problem.names), list(problem.physical_names),
+                      np.asarray(runs.theta_p, dtype=np.float64), extra["hard"]),
     }
     logger.info("emulator: %d runs from the store, %d new, %d rounds, %s", extra["n_reused_runs"],
                 runs.n_new, len(rounds), "converged" if converged else "NOT converged")
@@ -62,4 +66,34 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray,
     )
 
 
-__all__ = ["finish"]
+def beyond_runs(samples: np.ndarray, names: list[str], physical: list[str], theta_p: np.ndarray,
+                box: np.ndarray, margin: float = BEYOND_MARGIN) -> dict[str, dict[str, Any]]:
+    """Share of the posterior draws beyond the range of the model runs, per physical parameter.
+
+    Where the posterior reaches past every run the emulator extrapolates, and a rise it never
+    saw stays hidden (``docs/inference.md``; the check's warning: :mod:`torchshm.inference.checks`).
+
+    Args:
+        samples: `S x D` posterior draws; names: their `D` names; physical: the `P` physical
+            names, the columns of ``theta_p``, the `N x P` parameters of the runs.
+        box: `D x 2` search bounds; a draw counts when it lies more than ``margin`` of its
+            parameter's range outside the runs' range.
+
+    Returns:
+        ``{"beyond_runs": {name: share}, "runs_range": {name: [low, high]}}``.
+    """
+    shares: dict[str, float] = {}
+    ranges: dict[str, list[float]] = {}
+    if theta_p.shape[0] == 0:
+        return {"beyond_runs": shares, "runs_range": ranges}
+    for j, name in enumerate(physical):
+        k = names.index(name)
+        low, high = float(theta_p[:, j].min()), float(theta_p[:, j].max())
+        pad = margin * float(box[k, 1] - box[k, 0])
+        x = samples[:, k]
+        shares[name] = float(np.mean((x < low - pad) | (x > high + pad)))
+        ranges[name] = [low, high]
+    return {"beyond_runs": shares, "runs_range": ranges}
+
+
+__all__ = ["BEYOND_MARGIN", "beyond_runs", "finish"]
