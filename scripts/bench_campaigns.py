@@ -79,17 +79,25 @@ def plate() -> tuple[Problem, Any, dict[str, float], dict[str, Any]]:
 CASES = {"bridge_fe": bridge_fe, "plate": plate}
 
 
-def reference(problem: Problem, truth: dict[str, float], seed: int = 1) -> dict[str, Any]:
-    """MAP from the truth (the plausible box's centre for a parameter without one) and 4 plausible-box starts, then emcee to 50 τ from the best mode."""
-    t0 = time.process_time()
+def _modes(problem: Problem, log_joint: Any, truth: dict[str, float],
+           seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Modes and optima of ``log_joint`` from the truth (the plausible box's centre for a
+    parameter without one) and 4 plausible-box starts, and the box's widths `D`."""
     names = list(problem.names)
-    log_joint = direct_log_joint(problem)
     plaus = np.asarray(problem.plausible_bounds)
     scale = plaus[:, 1] - plaus[:, 0]
     rng = np.random.default_rng(seed)
     centre = [truth.get(n, float(np.mean(plaus[j]))) for j, n in enumerate(names)]
     starts = np.vstack([centre, plaus[:, 0] + rng.random((4, len(names))) * scale])
-    modes, optima = find_modes(log_joint, np.asarray(problem.hard_bounds), scale, starts)
+    modes, values = find_modes(log_joint, np.asarray(problem.hard_bounds), scale, starts)
+    return modes, values, scale
+
+
+def reference(problem: Problem, truth: dict[str, float], seed: int = 1) -> dict[str, Any]:
+    """MAP from the truth (the plausible box's centre for a parameter without one) and 4 plausible-box starts, then emcee to 50 τ from the best mode."""
+    t0 = time.process_time()
+    log_joint = direct_log_joint(problem)
+    modes, optima, scale = _modes(problem, log_joint, truth, seed)
     chain = run_chain(log_joint, modes[0], scale, np.asarray(problem.hard_bounds), seed)
     samples = chain.pop("samples")
     return {"samples": samples, "n_modes": len(modes), "optima": optima[:3], **chain,
@@ -118,12 +126,7 @@ def tail_reference(problem: Problem, truth: dict[str, float], seed: int = 1) -> 
             return cached
         print(f"{TAIL_REFERENCE.name}: the problem changed, making the reference again", flush=True)
     t0, load0 = time.process_time(), os.getloadavg()[0]
-    plaus = np.asarray(problem.plausible_bounds)
-    scale = plaus[:, 1] - plaus[:, 0]
-    rng = np.random.default_rng(seed)
-    centre = [truth.get(n, float(np.mean(plaus[j]))) for j, n in enumerate(names)]
-    starts = np.vstack([centre, plaus[:, 0] + rng.random((4, len(names))) * scale])
-    modes, values = find_modes(log_joint, np.asarray(problem.hard_bounds), scale, starts)
+    modes, values, scale = _modes(problem, log_joint, truth, seed)
     axis = names.index("log10_K_r")
     slices = conditional_slices(log_joint, axis, TAIL_GRID, modes[0], scale, n=3000, seed=seed)
     res = integrate(TAIL_GRID, slices, axis, TAIL_BELOW, seed=seed)

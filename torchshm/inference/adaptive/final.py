@@ -24,10 +24,9 @@ logger = logging.getLogger("torchshm.inference.adaptive.method")
 BEYOND_MARGIN = 0.05
 
 
-def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray,
-               last: np.ndarray,
-               rounds: list[dict[str, Any]], runs: RunSet, trace: RunTrace, converged: bool,
-               seed: int, extra: dict[str, Any]) -> Posterior:
+def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, last: np.ndarray,
+           rounds: list[dict[str, Any]], runs: RunSet, trace: RunTrace, converged: bool,
+           seed: int, extra: dict[str, Any]) -> Posterior:
     """Final chain (the last round's samples ``last`` `S x D` and ``n_final_steps`` more),
     mixture density and evidence on the last emulator; the Posterior."""
     cpu = time.process_time()
