@@ -95,3 +95,21 @@ def test_a_low_but_uncertain_region_is_unresolved() -> None:
     settled = explore(HiddenMode(depth, sd=5.0), best, [0, 1], box, rng)  # (60 - 14) / 5 > 3 sd
     assert settled.n_unresolved == 0
     assert np.isclose(scan.top[0], best, atol=0.6).all()  # the best Sobol point starts a search
+
+
+def test_points_on_the_posterior_flank_are_not_unresolved() -> None:
+    """An unresolved point within 3 draw sds of the found posterior is its own flank (dropped);
+    one far from every draw stays unresolved."""
+    from torchshm.inference.adaptive.explore import Exploration, beyond_posterior
+
+    rng = np.random.default_rng(1)
+    draws = np.column_stack([rng.normal(-2.0, 0.1, 600), rng.normal(0.0, 0.2, 600), np.ones(600)])
+    rows = np.array([[-2.0, 0.9, 1.0],   # 4.5 sds out along b, beyond every draw
+                     [-2.45, 0.0, 1.0],  # 4.5 sds out along a, but draws reach 3.3 sds
+                     [2.0, 0.0, 1.0]])   # the hidden region: 40 sds away
+    scan = Exploration(rows, np.array([-1.0, -2.0, -0.5]), -0.5, rows[:1])
+    kept = beyond_posterior(scan, draws, [0, 1])
+    assert kept.n_unresolved == 1 and np.allclose(kept.rows[0], [2.0, 0.0, 1.0])
+    assert kept.z.tolist() == [-0.5] and kept.margin == -0.5
+    # the third column is not a physical parameter: distance ignores it
+    assert beyond_posterior(scan, draws, [0]).n_unresolved == 1

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 import torchshm.inference.methods  # noqa: F401  (registers the built-in methods)
+from torchshm.inference.adaptive.final import EXTRAPOLATION_SHARE  # warn at this share beyond the runs
 from torchshm.inference.noise_check import noise_check
 from torchshm.inference.registry import find_method
 from torchshm.problem.parameters import statistical_base
@@ -33,8 +34,6 @@ if TYPE_CHECKING:
 EDGE = 0.02
 #: warn when the posterior puts this many times what a flat posterior would (``EDGE``) there
 BOUND_FACTOR = 3.0
-#: warn when this share of an emulator's posterior lies beyond every model run of a parameter
-EXTRAPOLATION_SHARE = 0.05
 
 
 def check_fit(post: Posterior) -> Posterior:
@@ -101,8 +100,8 @@ def extrapolation_lines(post: Posterior) -> list[str]:
             out.append(f"EXTRAPOLATION: {share:.0%} of the posterior of {name} lies beyond every "
                        f"model run ({name} {low:.4g} to {high:.4g}): there the emulator extends "
                        "what it saw and can miss a peak it never ran. Fix: rerun on the same "
-                       "store with a larger n_initial, or a plausible box that covers where the "
-                       "posterior lies (finished runs are reused)")
+                       "store with a larger max_model_evaluations or n_initial, or a plausible "
+                       "box that covers where the posterior lies (finished runs are reused)")
     return out
 
 

@@ -45,6 +45,9 @@ N_SOBOL = 512
 KAPPA = 3.0
 #: best Sobol points passed to the mode search as starts
 N_TOP = 2
+#: an unresolved point this close to a posterior draw (Euclidean, in the draws' sds of the
+#: physical parameters) is the found posterior's own flank, not a separate mode
+NEAR = 3.0
 
 
 @dataclass(frozen=True)
@@ -130,6 +133,29 @@ def with_modes(scan: Exploration, log_joint: EmulatedLogJoint, modes: np.ndarray
     return Exploration(np.concatenate([modes[1:][open_], scan.rows]),
                        np.concatenate([z[open_], scan.z]), max(scan.margin, float(z.max())),
                        scan.top)
+
+
+def beyond_posterior(scan: Exploration, draws: np.ndarray, columns: list[int],
+                     radius: float = NEAR) -> Exploration:
+    """``scan`` without the unresolved points within ``radius`` of a posterior draw, in the
+    draws' sds of the physical parameters (``columns`` of `S x D` ``draws``).
+
+    The level of :func:`explore` lies the straggler gap below the best (18 nats for 5
+    parameters), so some Sobol points always fall in the thin shell around the found posterior
+    where the emulated log joint just crosses the level. Such a point is on the posterior's
+    own flank (the chain and the batch rule cover it, and the stop rule's ``sd_tol`` bounds
+    the emulator's error there); leaving it unresolved kept the stop rule from holding for
+    rounds after everything else had settled, each round spending runs next to the posterior.
+    A separate mode lies several sds from every draw of the found one.
+    """
+    columns = list(columns)
+    if scan.n_unresolved == 0 or not columns or draws.shape[0] == 0:
+        return scan
+    scale = np.maximum(draws[:, columns].std(0), 1e-12)
+    points = torch.as_tensor(scan.rows[:, columns] / scale)
+    near = torch.cdist(points, torch.as_tensor(draws[:, columns] / scale)).min(1).values
+    keep = (near > radius).numpy()
+    return Exploration(scan.rows[keep], scan.z[keep], scan.margin, scan.top)
 
 
 def exploration_batch(scan: Exploration, emulator: FieldEmulator, theta_p: np.ndarray, k: int,

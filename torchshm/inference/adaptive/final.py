@@ -22,6 +22,9 @@ if TYPE_CHECKING:
 logger = logging.getLogger("torchshm.inference.adaptive.method")
 #: a draw is beyond the runs when it lies this share of its parameter's range outside them
 BEYOND_MARGIN = 0.05
+#: the stop rule runs the model past the runs, and the check warns, while this share of the
+#: posterior draws lies beyond them
+EXTRAPOLATION_SHARE = 0.05
 
 
 def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, last: np.ndarray,
@@ -95,4 +98,33 @@ def beyond_runs(samples: np.ndarray, names: list[str], physical: list[str], thet
     return {"beyond_runs": shares, "runs_range": ranges}
 
 
-__all__ = ["BEYOND_MARGIN", "beyond_runs", "finish"]
+def beyond_rows(samples: np.ndarray, columns: list[int], theta_p: np.ndarray, box: np.ndarray,
+                margin: float = BEYOND_MARGIN) -> np.ndarray:
+    """`S` whether each draw lies beyond the runs' range in some physical parameter.
+
+    Args:
+        samples: `S x D` draws; columns: where the `P` physical parameters (the columns of
+            ``theta_p``, `N x P` runs) sit in a draw; box: `D x 2` search bounds; a draw is
+            beyond when it lies more than ``margin`` of its parameter's range outside the runs.
+    """
+    out = np.zeros(samples.shape[0], dtype=bool)
+    for j, k in enumerate(columns):
+        pad = margin * float(box[k, 1] - box[k, 0])
+        x = samples[:, k]
+        out |= (x < theta_p[:, j].min() - pad) | (x > theta_p[:, j].max() + pad)
+    return out
+
+
+def extrapolation_run(samples: np.ndarray, beyond: np.ndarray, columns: list[int],
+                      theta_p: np.ndarray, box: np.ndarray) -> np.ndarray:
+    """`1 x D` the draw of ``samples`` `S x D` (``beyond`` `S` marks those past the runs) that
+    lies farthest beyond the runs' range, in shares of the search ``box``: one run there
+    extends the range over every draw past it in that direction."""
+    rows = samples[beyond]
+    width = box[columns, 1] - box[columns, 0]
+    low, high = theta_p.min(0), theta_p.max(0)
+    past = np.maximum(low - rows[:, columns], rows[:, columns] - high) / width
+    return rows[[int(np.argmax(past.max(1)))]]
+
+
+__all__ = ["BEYOND_MARGIN", "EXTRAPOLATION_SHARE", "beyond_rows", "beyond_runs", "extrapolation_run", "finish"]

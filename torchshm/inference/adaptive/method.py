@@ -35,10 +35,11 @@ import torch
 from torchshm.inference.adaptive import modes as mode_search
 from torchshm.inference.adaptive import sampling
 from torchshm.inference.adaptive.acquisition import choose_batch, design
-from torchshm.inference.adaptive.explore import (explore, explore_calibration, exploration_batch,
-                                                  with_modes)
+from torchshm.inference.adaptive.explore import (beyond_posterior, explore, explore_calibration,
+                                                  exploration_batch, with_modes)
 from torchshm.inference.adaptive.field import FieldEmulator, model_transform
-from torchshm.inference.adaptive.final import finish
+from torchshm.inference.adaptive.final import (EXTRAPOLATION_SHARE, beyond_rows,
+                                                extrapolation_run, finish)
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, physical_columns
 from torchshm.inference.adaptive.runs import RunSet, run_batch
 from torchshm.inference.adaptive.validation import check_batch
@@ -87,8 +88,9 @@ def run_emulator(
             ``sd_tol`` nats...
         check_tol: ...the last batch of runs, made at posterior draws before the emulator
             saw them, was within ``check_tol`` nats of the emulator's log-likelihood
-            (:mod:`.validation`), and no point of the plausible box may still hold a mode the
-            emulator cannot rule out (:mod:`.explore`).
+            (:mod:`.validation`), no point of the plausible box may still hold a mode the
+            emulator cannot rule out (:mod:`.explore`) and less than 5 % of the draws may lie
+            beyond the runs' range (:data:`.final.EXTRAPOLATION_SHARE`).
         n_evidence: importance samples of the log evidence and the returned posterior draws.
         emulator_kernel: GP kernel of the field emulator, "matern52" or "rbf".
 
@@ -179,6 +181,8 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                                                   hop=n_modes > 1)
             pick = rng.choice(samples.shape[0], min(600, samples.shape[0]), False)
             draws = samples[pick]
+            if n_modes == 1:  # the draws' spread is one mode's: the scale of its flank
+                scan = beyond_posterior(scan, draws, columns[0])
             tv = (sampling.total_variation(log_joint(draws), previous(draws))
                   if previous is not None else 1.0)
             mmtv = sampling.marginal_tv(samples, prev_samples) if prev_samples is not None else 1.0
@@ -186,7 +190,9 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             calm = calm + 1 if tv < tv_tol else 0
             checked = check is not None and check.passed(check_tol)
             settled = calm >= patience and float(sd.mean()) < sd_tol and checked
-            converged = settled and scan.n_unresolved == 0
+            beyond = beyond_rows(draws, columns[0], runs.theta_p[:, columns[1]], hard)
+            extrapolating = bool(beyond.mean() >= EXTRAPOLATION_SHARE)
+            converged = settled and scan.n_unresolved == 0 and not extrapolating
             row = {"round": float(r), "n_runs": float(len(batch)), "n_new_runs": float(new),
                    "n_model_evaluations": float(runs.n_new), "n_emulator_runs":
                    float(runs.theta_p.shape[0]), "tv": tv, "mmtv": mmtv,
@@ -194,7 +200,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                    "emulator_loglik_sd": float(sd.mean()), "emulator_inflation": inflation,
                    "check_loglik_error": check.max_error if check is not None else np.nan,
                    "n_unresolved": float(scan.n_unresolved), "explore_margin": scan.margin,
-                   "explore_calibration": far_calibration,
+                   "explore_calibration": far_calibration, "beyond_runs": float(beyond.mean()),
                    "wall_time_s": time.perf_counter() - t_round,
                    "cpu_time_s": time.process_time() - c_round}
             row.update(marginal_scalars(names, samples))
@@ -202,16 +208,23 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             reused = runs.theta_p.shape[0] - n_before - new
             logger.info("round %d: %d runs (%d new, %d from the store; %d new in all), TV %.3f, "
                         "emulator log-likelihood sd %.3f nats, last batch off by %.3g nats, "
-                        "%d unresolved points of the box", r, len(batch), new, max(0, reused),
-                        runs.n_new, tv, sd.mean(), row["check_loglik_error"], scan.n_unresolved)
+                        "%d unresolved points of the box, %.0f%% of the draws beyond the runs", r,
+                        len(batch), new, max(0, reused), runs.n_new, tv, sd.mean(),
+                        row["check_loglik_error"], scan.n_unresolved, 100 * beyond.mean())
             rounds.append({**row, "batch": np.asarray(batch).tolist()})
             left = budget - runs.n_new
             if converged or left <= 0:
                 break
-            want = min(batch_size, left)  # exploration: one run, all but one once settled
+            want = min(batch_size, left)
+            # one run past the runs' range, where the emulator extends what it saw
+            ext = (extrapolation_run(draws, beyond, columns[0], runs.theta_p[:, columns[1]], hard)
+                   if extrapolating else draws[:0])
+            want -= ext.shape[0]
+            # exploration: one run, all but one once settled
             far = exploration_batch(scan, emulator, physical_columns(problem, scan.rows),
-                                    max(1, want - 1) if settled else 1, rng)
-            want -= far.shape[0]
+                                    min(want, max(1, want - 1) if settled else 1), rng)
+            far = np.concatenate([far, ext])
+            want -= far.shape[0] - ext.shape[0]
             batch, chosen = choose_batch(emulator, physical_columns(problem, draws), sd**2, want, rng)
             if len(chosen) < want:  # nothing left to learn by the rule: test at random draws
                 extra = rng.choice(np.setdiff1d(np.arange(draws.shape[0]), chosen),

@@ -1,0 +1,28 @@
+"""The emulator's record of where its posterior reaches past every model run
+(:mod:`torchshm.inference.adaptive.final`): the stop rule's extrapolation condition and the
+run it asks for."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from torchshm.inference.adaptive.final import beyond_rows, beyond_runs, extrapolation_run
+
+
+def test_draws_beyond_the_runs_agree_with_the_shares_and_the_run_goes_farthest() -> None:
+    rng = np.random.default_rng(3)
+    box = np.array([[10.0, 60.0], [0.0, 12.0], [0.0, 5.0]])  # E, log10_k, sigma_a
+    runs = np.column_stack([rng.uniform(20.0, 50.0, 10), rng.uniform(0.5, 10.2, 10)])
+    draws = np.column_stack([rng.normal(35.0, 1.0, 600), rng.uniform(6.0, 12.0, 600),
+                             rng.gamma(20.0, 0.05, 600)])
+    beyond = beyond_rows(draws, [0, 1], runs, box)
+    hi = runs[:, 1].max()
+    assert np.array_equal(beyond, draws[:, 1] > hi + 0.05 * 12.0)  # E's draws lie among the runs
+    share = beyond_runs(draws, ["E", "log10_k", "sigma_a"], ["E", "log10_k"], runs, box)
+    assert beyond.mean() == share["beyond_runs"]["log10_k"]
+    run = extrapolation_run(draws, beyond, [0, 1], runs, box)
+    assert run.shape == (1, 3) and run[0, 1] == draws[beyond, 1].max()
+    # a draw far past the runs in E wins over one just past them in log10_k
+    draws[0] = [59.0, 10.9, 1.0]
+    beyond = beyond_rows(draws, [0, 1], runs, box)
+    assert np.allclose(extrapolation_run(draws, beyond, [0, 1], runs, box), draws[:1])
