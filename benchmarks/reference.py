@@ -45,7 +45,7 @@ def direct_log_joint(problem: Any) -> LogDensity:
             eta = problem.at_measured(model(theta_p))
             out[ok] += blocks_log_likelihood(y, eta, problem.blocks, problem.kernel, sigma_a, length,
                                              problem.sigma_m, method=method)
-        return torch.nan_to_num(out, nan=-math.inf).numpy()
+        return torch.where(torch.isnan(out), -math.inf, out).numpy()  # -inf stays -inf
 
     return log_joint
 
