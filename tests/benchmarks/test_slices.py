@@ -47,4 +47,3 @@ def test_slices_match_the_exact_tail_mass_and_moments() -> None:
     check = check_importance(_log_joint, 0, grid, slices, (8.0, 10.0), n=4000)
     assert np.allclose(check["tail_mass"], tail, atol=4 * np.max(check["tail_mass_sd"]))
     assert abs(check["mean"][0] - mean_k) < 0.1 and check["ess"] > 1000
-
