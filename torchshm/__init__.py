@@ -6,8 +6,7 @@ The public names below (see ``docs/api.md``: signatures and examples) are import
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from torchshm._lazy import lazy_getattr
 
 __version__ = "0.1.0"
 
@@ -50,14 +49,7 @@ _EXPORTS: dict[str, str] = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    try:
-        module = _EXPORTS[name]
-    except KeyError:
-        raise AttributeError(f"module 'torchshm' has no attribute {name!r}") from None
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_getattr("torchshm", _EXPORTS, globals())
 
 
 def __dir__() -> list[str]:

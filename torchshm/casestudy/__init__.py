@@ -11,8 +11,7 @@ names are imported lazily, so that the frame model does not load the surrogate's
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from torchshm._lazy import lazy_getattr
 
 #: public name -> module of this package that defines it
 _EXPORTS: dict[str, str] = {
@@ -38,14 +37,7 @@ _EXPORTS: dict[str, str] = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    try:
-        module = _EXPORTS[name]
-    except KeyError:
-        raise AttributeError(f"module 'torchshm.casestudy' has no attribute {name!r}") from None
-    value = getattr(importlib.import_module(f"torchshm.casestudy.{module}"), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_getattr("torchshm.casestudy", _EXPORTS, globals(), prefix="torchshm.casestudy.")
 
 
 def __dir__() -> list[str]:
