@@ -157,3 +157,25 @@ def test_cli_config_selects_the_method() -> None:
     assert settings.method.name == "emulator"
     assert options["batch_size"] == 4 and options["tv_tol"] == 0.05
     assert "max_model_evaluations" not in options  # None: the method's default budget
+
+
+def test_the_output_check_run_is_the_first_design_run() -> None:
+    """identify's output check runs the model once before the method; that run is the first
+    point of the emulator's initial design, so the design makes one run fewer and the budget
+    is not exceeded (a 10-minute model: the check is not an extra 10 minutes)."""
+    calls: list[int] = []
+
+    class Counting(LinearModel):
+        def __call__(self, theta_p: torch.Tensor) -> torch.Tensor:
+            theta_p = torch.as_tensor(theta_p, dtype=torch.float64)
+            calls.append(int(np.prod(theta_p.shape[:-1])) if theta_p.ndim > 1 else 1)
+            return super().__call__(theta_p)
+
+    problem = linear_gaussian_problem(model=Counting())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        post = torchshm.identify(problem, "emulator", seed=0, max_model_evaluations=12, **SMALL)
+    first = post.diagnostics["rounds"][0]
+    assert calls[0] == 1 and post.diagnostics["n_reused_runs"] == 1  # the check, then the method
+    assert first["n_runs"] == 10 and first["n_new_runs"] == 9  # the design holds the checked run
+    assert sum(calls) == post.n_model_evaluations <= 12

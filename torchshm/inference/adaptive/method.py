@@ -124,8 +124,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     names, dim = list(problem.names), len(problem.names)
     n_phys = len(problem.physical_names)
     batch_size = _positive("batch_size", batch_size)
-    n_initial = _positive("n_initial", n_initial
-                          or batch_size * max(2, -(-(2 * n_phys + 1) // batch_size)))
+    n_initial = _positive("n_initial", n_initial or default_n_initial(n_phys, batch_size))
     if max_model_evaluations is None:
         max_model_evaluations = default_cap(dim, n_initial, batch_size)
     budget = _positive("max_model_evaluations", max_model_evaluations, minimum=0)
@@ -258,6 +257,12 @@ def _spread(log_joint: EmulatedLogJoint, walkers: np.ndarray, runs: RunSet,
     scale = plausible[:, 1] - plausible[:, 0]
     walkers = mode_search.spread_walkers(walkers, modes, values, gap, scale, rng)
     return walkers, max(1, int((values >= values.max() - gap).sum())), modes
+
+
+def default_n_initial(n_phys: int, batch_size: int) -> int:
+    """The default initial design for `P` physical parameters: the smallest multiple of
+    ``batch_size`` of at least ``2 P + 1`` and ``2 batch_size``."""
+    return batch_size * max(2, -(-(2 * n_phys + 1) // batch_size))
 
 
 def default_cap(dim: int, n_initial: int, batch_size: int) -> int:

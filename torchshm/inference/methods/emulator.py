@@ -32,21 +32,27 @@ def check(options: Options, dim: int) -> None:
 
 
 def _n_initial(options: Options, n_phys: int) -> int:
-    """The initial design: ``n_initial``, else a multiple of ``batch_size`` >= 2 P + 1."""
-    batch = int(options.get("batch_size", 5))
-    return int(options.get("n_initial") or batch * -(-(2 * n_phys + 1) // batch))
+    """The initial design: ``n_initial``, else the runner's default
+    (:func:`~torchshm.inference.adaptive.method.default_n_initial`)."""
+    from torchshm.inference.adaptive.method import default_n_initial
+
+    return int(options.get("n_initial") or default_n_initial(n_phys, int(options.get("batch_size", 5))))
 
 
 def first_point(problem: Problem, seed: int, options: Options) -> np.ndarray:
-    """The first point of the initial Latin hypercube in the plausible box."""
+    """The first point of the runner's initial Latin hypercube in the plausible box (the same
+    design, so the output check's run is the design's first run, not an extra one)."""
     from torchshm.inference.adaptive.acquisition import design
+    from torchshm.inference.adaptive.method import default_cap
 
     plausible = np.asarray(problem.plausible_bounds, dtype=np.float64)
     n_phys = len(problem.physical_names)
     batch = int(options.get("batch_size", 5))
     n_initial = _n_initial(options, n_phys)
     budget = options.get("max_model_evaluations")
-    budget = max(15 * n_phys, n_initial + 2 * batch) if budget is None else int(budget)
+    if budget is None:
+        budget = default_cap(len(problem.names), n_initial, batch)
+    budget = int(budget) - 1 if int(budget) > 1 else int(budget)  # as :func:`charge` leaves it
     return design(plausible, min(n_initial, max(budget, n_phys + 2)), seed)[0]
 
 
