@@ -33,3 +33,15 @@ def test_refusals() -> None:
         kern(x, x + 1.0, sigma_a=1.0, length=0.012)
     with pytest.raises(NotImplementedError):
         kern.correlation(torch.zeros(2, 2), torch.ones(1))
+
+
+def test_an_element_side_far_below_the_pitch_numbers_only_the_elements_seen() -> None:
+    """An inferred ``length`` whose prior reaches towards 0 (a Gamma) asked for a grid of
+    (extent / length)² columns (23 TiB at the plate's 2 m x 1.5 m and 1 µm) after the model
+    runs; only the elements some point sees are columns, at most four a point."""
+    from torchshm.kernels.upscaled import operator
+
+    g = np.stack(np.meshgrid(np.linspace(0.0, 2.0, 16), np.linspace(0.0, 1.5, 12)), -1).reshape(-1, 2)
+    u = operator(g, 1e-6)
+    assert u.shape[0] == 192 and u.shape[1] <= 4 * 192
+    assert np.allclose(np.asarray(u.sum(axis=1)).ravel(), 1.0)  # bilinear weights: rows sum to 1

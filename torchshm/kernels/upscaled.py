@@ -45,12 +45,15 @@ def operator(x: np.ndarray, length: float) -> sparse.csr_matrix:
                       (0, 1, (1 - t[:, 0]) * t[:, 1]), (1, 1, t[:, 0] * t[:, 1])):
         ei, ej = np.minimum(base[:, 0] + di, shape[0] - 1), np.minimum(base[:, 1] + dj, shape[1] - 1)
         rows.append(np.arange(x.shape[0]))
-        cols.append(ei * shape[1] + ej)
+        cols.append(ei.astype(np.int64) * int(shape[1]) + ej)
         vals.append(w)
-    out = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                            shape=(x.shape[0], int(shape[0] * shape[1])))
-    out.eliminate_zeros()
-    return out[:, np.unique(out.indices)].tocsr()
+    rows_, cols_, vals_ = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+    keep = vals_ != 0.0
+    # number the elements some point sees (at most 4 n), never the whole grid: an element side
+    # far below the points' pitch would otherwise make a grid of ~(extent / length)² columns
+    seen, column = np.unique(cols_[keep], return_inverse=True)
+    return sparse.csr_matrix((vals_[keep], (rows_[keep], column.reshape(-1))),
+                             shape=(x.shape[0], int(seen.size)))
 
 
 class Upscaled(Kernel):
