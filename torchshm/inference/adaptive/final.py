@@ -90,11 +90,8 @@ def beyond_runs(samples: np.ndarray, names: list[str], physical: list[str], thet
         return {"beyond_runs": shares, "runs_range": ranges}
     for j, name in enumerate(physical):
         k = names.index(name)
-        low, high = float(theta_p[:, j].min()), float(theta_p[:, j].max())
-        pad = margin * float(box[k, 1] - box[k, 0])
-        x = samples[:, k]
-        shares[name] = float(np.mean((x < low - pad) | (x > high + pad)))
-        ranges[name] = [low, high]
+        shares[name] = float(beyond_rows(samples, [k], theta_p[:, [j]], box, margin).mean())
+        ranges[name] = [float(theta_p[:, j].min()), float(theta_p[:, j].max())]
     return {"beyond_runs": shares, "runs_range": ranges}
 
 
@@ -127,4 +124,5 @@ def extrapolation_run(samples: np.ndarray, beyond: np.ndarray, columns: list[int
     return rows[[int(np.argmax(past.max(1)))]]
 
 
-__all__ = ["BEYOND_MARGIN", "EXTRAPOLATION_SHARE", "beyond_rows", "beyond_runs", "extrapolation_run", "finish"]
+__all__ = ["BEYOND_MARGIN", "EXTRAPOLATION_SHARE", "beyond_rows", "beyond_runs", "extrapolation_run",
+           "finish"]

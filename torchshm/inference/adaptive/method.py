@@ -222,8 +222,8 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             # exploration: one run, all but one once settled
             far = exploration_batch(scan, emulator, physical_columns(problem, scan.rows),
                                     min(want, max(1, want - 1) if settled else 1), rng)
-            far = np.concatenate([far, ext])
-            want -= far.shape[0] - ext.shape[0]
+            want -= far.shape[0]
+            far = np.concatenate([far, ext])  # runs away from the posterior, checked apart
             batch, chosen = choose_batch(emulator, physical_columns(problem, draws), sd**2, want, rng)
             if len(chosen) < want:  # nothing left to learn by the rule: test at random draws
                 extra = rng.choice(np.setdiff1d(np.arange(draws.shape[0]), chosen),
