@@ -45,7 +45,9 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
             f"method='emulator' stopped at its cap of {extra['budget']} model runs before "
             f"the stop rule held (last round: TV {rounds[-1]['tv']:.3f}, emulator "
             f"log-likelihood sd {rounds[-1]['emulator_loglik_sd']:.3f} nats, last batch off by "
-            f"{rounds[-1]['check_loglik_error']:.3g} nats); the posterior may still move and "
+            f"{rounds[-1]['check_loglik_error']:.3g} nats, {rounds[-1]['n_unresolved']:.0f} "
+            f"unresolved points of the box, {rounds[-1]['beyond_runs']:.0%} of the draws beyond "
+            "the runs); the posterior may still move and "
             "is widened by the emulator's own uncertainty: raise max_model_evaluations",
             RuntimeWarning, stacklevel=3)
     diagnostics = {
