@@ -25,6 +25,7 @@ from torchshm.kernels import Kernel, get_kernel
 from torchshm.kernels.base import as_float64
 from torchshm.likelihood.marginal import Eq21
 from torchshm.likelihood.statespace import BATCH_STATE_SPACE_FROM, is_markov
+from torchshm.predictive import chunks
 
 #: 1-D lines of a Markov kernel from this many points are drawn by the O(n) state space
 STATE_SPACE_FROM = BATCH_STATE_SPACE_FROM
@@ -126,16 +127,32 @@ def line_draws(
     return out
 
 
-def equal_tailed(samples: Tensor, level: float = 0.95) -> tuple[Tensor, Tensor, Tensor]:
+def equal_tailed(samples: Tensor, level: float = 0.95,
+                 chunk_bytes: int | None = None) -> tuple[Tensor, Tensor, Tensor]:
     """Mean and equal-tailed interval of draws along the first dimension.
 
+    The quantiles are taken over ``chunk_bytes`` of the draws' points at a time (the same numbers
+    as over all at once, without a copy of every draw); float32 draws give float64 summaries
+    (the mean summed in float64).
+
     Args:
-        samples: `N x ...` draws.
+        samples: `N x ...` draws (float64 or float32).
         level: probability content of the interval.
+        chunk_bytes: bytes of float64 draws summarised at once (default
+            :data:`~torchshm.predictive.chunks.SUMMARY_CHUNK_BYTES`).
 
     Returns:
-        ``(mean, lower, upper)``, each of shape `...`.
+        ``(mean, lower, upper)``, each of shape `...`, float64.
     """
     tail = (1.0 - level) / 2.0
-    lower, upper = np.quantile(samples.numpy(), [tail, 1.0 - tail], axis=0)
-    return samples.mean(0), torch.from_numpy(lower), torch.from_numpy(upper)
+    chunk_bytes = chunks.SUMMARY_CHUNK_BYTES if chunk_bytes is None else chunk_bytes
+    flat = samples.reshape(samples.shape[0], -1)
+    lower = np.empty(flat.shape[1])
+    upper = np.empty(flat.shape[1])
+    step = max(1, chunk_bytes // (8 * max(flat.shape[0], 1)))
+    for start in range(0, flat.shape[1], step):
+        block = flat[:, start:start + step].numpy().astype(np.float64, copy=False)
+        lower[start:start + step], upper[start:start + step] = np.quantile(block, [tail, 1.0 - tail], axis=0)
+    mean = samples.mean(0) if samples.dtype == torch.float64 else samples.mean(0, dtype=torch.float64)
+    shape = samples.shape[1:]
+    return mean, torch.from_numpy(lower).reshape(shape), torch.from_numpy(upper).reshape(shape)
