@@ -10,8 +10,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 
 from reference_predictive import CASES, fingerprint
+from torchshm.predictive import chunks
+from torchshm.predictive.draws import line_draws
+from torchshm.predictive.phases import draw_lines
+from torchshm.predictive.view import Part, PredictionView
+from torchshm.problem.matching import PositionMap
 
 RECORDED = {
     "line_dense": [-5059.774506740658, 87620.06483843358, 19.938774361659405, -101.19549013481316, -174.65537342572782, -26.861092454918165, -5085.591289185437],
@@ -25,6 +31,60 @@ RECORDED = {
 }
 
 
+@pytest.fixture
+def tiny_chunks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Chunks of 16 draws (the fewest) and quantiles one point at a time."""
+    monkeypatch.setattr(chunks, "CHUNK_BYTES", 1)
+    monkeypatch.setattr(chunks, "SUMMARY_CHUNK_BYTES", 1)
+
+
 @pytest.mark.parametrize("name", list(CASES))
-def test_same_numbers_as_before_chunking(name: str) -> None:
+def test_same_numbers_as_before_chunking(name: str, tiny_chunks: None) -> None:
+    """21 to 50 draws in chunks of 16 (the last one 16 to 31): the recorded numbers."""
     np.testing.assert_allclose(fingerprint(CASES[name]()), RECORDED[name], rtol=1e-10, atol=1e-9)
+
+
+def test_summary_keeps_float32_draws_with_the_same_summary(tiny_chunks: None) -> None:
+    full, summary = CASES["line_dense"](), CASES["line_dense"](keep="summary")
+    assert summary.samples.dtype == torch.float32 and summary.eta is None
+    scale = float(full.samples.abs().max())
+    torch.testing.assert_close(summary.samples.double(), full.samples, rtol=0, atol=1e-6 * scale)
+    for name in ("mean", "lower", "upper"):  # float32 round-off (2**-24 = 6e-8 relative)
+        torch.testing.assert_close(getattr(summary, name), getattr(full, name), rtol=0, atol=1e-6 * scale)
+
+
+@pytest.mark.parametrize("rows, values", [(50, 20), (33, 1), (16, 7), (15, 3), (2000, 156031), (47, 3)])
+def test_row_chunks_are_multiples_of_16_with_a_last_one_of_16_or_more(rows: int, values: int) -> None:
+    parts = chunks.row_chunks(rows, values, budget=8 * 16 * values)
+    assert parts[0].start == 0 and parts[-1].stop == rows
+    assert all(a.stop == b.start for a, b in zip(parts, parts[1:]))
+    assert all((p.stop - p.start) % 16 == 0 for p in parts[:-1])
+    assert len(parts) == 1 or parts[-1].stop - parts[-1].start >= 16
+
+
+def _view(x: torch.Tensor, lines: int) -> PredictionView:
+    """``lines`` lines of equal length over the points ``x`` (a field: one line)."""
+    n = x.shape[0] // lines
+    parts = tuple(Part(str(i), torch.arange(i * n, (i + 1) * n), i, 0.5 + 0.25 * i) for i in range(lines))
+    label = None if lines == 1 else np.repeat([str(i) for i in range(lines)], n).astype(object)
+    return PredictionView(x, label, PositionMap(np.arange(x.shape[0])), parts)
+
+
+@pytest.mark.parametrize("kernel, x, lines, sigma_m", [
+    ("matern32", torch.linspace(0.0, 30.0, 140), 2, 0.05),   # two lines of 70 points: state space
+    ("squared_exponential", torch.linspace(0.0, 5.0, 30), 1, torch.linspace(0.0, 0.1, 45)),  # dense
+    ("matern52", torch.cartesian_prod(torch.linspace(0, 1, 6), torch.linspace(0, 1, 5)), 1, 0.02),  # field
+])
+def test_draw_lines_in_chunks_equal_line_draws(kernel: str, x: torch.Tensor, lines: int,
+                                               sigma_m: float | torch.Tensor) -> None:
+    """:func:`draw_lines` in chunks of 16 draws equals :func:`line_draws` of all 45 at once."""
+    view, rng = _view(x.double(), lines), np.random.default_rng(0)
+    eta = torch.as_tensor(rng.normal(100.0, 30.0, (45, 2, x.shape[0])))
+    sigma_a = torch.as_tensor(rng.uniform(1.0, 3.0, (45, lines)))
+    length = torch.as_tensor(rng.uniform(0.2, 0.6, (45, lines)))
+    scale = torch.as_tensor(rng.uniform(0.5, 2.0, 45))
+    want = line_draws(view, eta, kernel, sigma_a, length, sigma_m, torch.Generator().manual_seed(3), scale)
+    got = eta.clone()
+    draw_lines(got, view, kernel, sigma_a, length, sigma_m, torch.Generator().manual_seed(3),
+               chunks.row_chunks(45, got[0].numel(), budget=1), scale)
+    torch.testing.assert_close(got, want, rtol=1e-12, atol=1e-9)
