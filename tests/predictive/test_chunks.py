@@ -13,7 +13,7 @@ import pytest
 import torch
 
 from reference_predictive import CASES, fingerprint
-from torchshm.predictive import chunks
+from torchshm.predictive import chunks, draws
 from torchshm.predictive.draws import line_draws
 from torchshm.predictive.phases import draw_lines
 from torchshm.predictive.view import Part, PredictionView
@@ -35,7 +35,7 @@ RECORDED = {
 def tiny_chunks(monkeypatch: pytest.MonkeyPatch) -> None:
     """Chunks of 16 draws (the fewest) and quantiles one point at a time."""
     monkeypatch.setattr(chunks, "CHUNK_BYTES", 1)
-    monkeypatch.setattr(chunks, "SUMMARY_CHUNK_BYTES", 1)
+    monkeypatch.setattr(draws, "SUMMARY_CHUNK_BYTES", 1)
 
 
 @pytest.mark.parametrize("name", list(CASES))

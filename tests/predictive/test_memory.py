@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +15,8 @@ from doubles_predictive import FakeProblem, GaussianPosterior, LinearModel, line
 from torchshm.data import Measurements
 from torchshm.predictive import posterior_predictive, predictive_memory, prediction_view
 from torchshm.predictive import memory
+
+HERE = Path(__file__).resolve().parent
 
 
 def _status(key: str) -> int:
@@ -33,22 +38,34 @@ def test_estimate_counts_the_kept_draws() -> None:
         predictive_memory(view, [20.0], 10)
 
 
-@pytest.mark.skipif(not Path("/proc/self/clear_refs").exists(), reason="needs Linux's peak-memory reset")
-def test_estimate_is_within_a_factor_two_of_the_measured_peak() -> None:
-    """3000 points, 1000 draws: the peak resident memory the predictive adds (VmHWM, reset
-    before the call; arrays this large are mapped and unmapped whole) is within a factor of 2
-    below the estimate and 1.5 above it (measured: 219 MiB of an estimate of 247 MiB)."""
+def measure_peak() -> tuple[int, int]:
+    """The estimate and the growth of the peak resident memory (VmHWM, reset just before the
+    call) of a predictive of 2000 draws at 3000 points [bytes], in this process."""
+    torch.set_default_dtype(torch.float64)
     model = LinearModel(n=3000, loads=(10.0, 20.0))
     data = Measurements(model.x.numpy(), model(torch.tensor([10.0, 5.0]))[:1].numpy(), [10.0], sigma_e=0.1)
     problem = FakeProblem(model, data, kernel="independent")
     post = GaussianPosterior(problem.names, np.array([10.0, 5.0, 0.8]), np.diag([0.5, 0.3, 0.01]), problem)
     problem.model_outputs(np.random.default_rng(0).normal([10.0, 5.0], 1.0, (30, 2)))
-    need = predictive_memory(problem, [20.0], 1000)
+    need = predictive_memory(problem, [20.0], 2000)
     rss = _status("VmRSS")
     Path("/proc/self/clear_refs").write_text("5")
-    pred = posterior_predictive(post, [20.0], n=1000)
-    grown = _status("VmHWM") - rss
+    pred = posterior_predictive(post, [20.0], n=2000)
     assert pred.samples.nbytes + pred.eta.nbytes < need
+    return need, _status("VmHWM") - rss
+
+
+@pytest.mark.skipif(not Path("/proc/self/clear_refs").exists(), reason="needs Linux's peak-memory reset")
+def test_estimate_is_within_a_factor_two_of_the_measured_peak() -> None:
+    """In a fresh process (a test worker's earlier allocations would be reused): the memory the
+    predictive adds is within a factor of 2 below the estimate and 1.5 above it (measured
+    alone: 312 MiB of an estimate of 476 MiB)."""
+    code = f"import sys; sys.path[:0] = {[str(HERE), str(HERE.parents[1])]!r}; " \
+           "from test_memory import measure_peak; print(*measure_peak())"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "OMP_NUM_THREADS": "1"})
+    assert done.returncode == 0, done.stderr[-2000:]
+    need, grown = (int(v) for v in done.stdout.split()[-2:])
     assert 0.5 * need < grown < 1.5 * need, (grown / 2**20, need / 2**20)
 
 

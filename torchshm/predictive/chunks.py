@@ -24,8 +24,6 @@ from torch import Tensor
 
 #: bytes of one float64 copy of a chunk's draws (`rows x L' x n_x x 8`)
 CHUNK_BYTES = 2**26
-#: bytes of the draws of the points summarised at once (:func:`~torchshm.predictive.draws.equal_tailed`)
-SUMMARY_CHUNK_BYTES = 2**26
 #: chunks are multiples of this many vectors (``torch.randn``'s block of 16 numbers)
 ROW_BLOCK = 16
 

@@ -25,10 +25,11 @@ from torchshm.kernels import Kernel, get_kernel
 from torchshm.kernels.base import as_float64
 from torchshm.likelihood.marginal import Eq21
 from torchshm.likelihood.statespace import BATCH_STATE_SPACE_FROM, is_markov
-from torchshm.predictive import chunks
 
 #: 1-D lines of a Markov kernel from this many points are drawn by the O(n) state space
 STATE_SPACE_FROM = BATCH_STATE_SPACE_FROM
+#: bytes of the float64 draws of the points summarised at once (:func:`equal_tailed`)
+SUMMARY_CHUNK_BYTES = 2**26
 
 if TYPE_CHECKING:
     from torchshm.predictive.view import PredictionView
@@ -139,13 +140,13 @@ def equal_tailed(samples: Tensor, level: float = 0.95,
         samples: `N x ...` draws (float64 or float32).
         level: probability content of the interval.
         chunk_bytes: bytes of float64 draws summarised at once (default
-            :data:`~torchshm.predictive.chunks.SUMMARY_CHUNK_BYTES`).
+            :data:`SUMMARY_CHUNK_BYTES`).
 
     Returns:
         ``(mean, lower, upper)``, each of shape `...`, float64.
     """
     tail = (1.0 - level) / 2.0
-    chunk_bytes = chunks.SUMMARY_CHUNK_BYTES if chunk_bytes is None else chunk_bytes
+    chunk_bytes = SUMMARY_CHUNK_BYTES if chunk_bytes is None else chunk_bytes
     flat = samples.reshape(samples.shape[0], -1)
     lower = np.empty(flat.shape[1])
     upper = np.empty(flat.shape[1])

@@ -26,7 +26,8 @@ import numpy as np
 
 from torchshm.kernels import Kernel, get_kernel
 from torchshm.likelihood.marginal import DENSE_MEMORY_SHARE, _physical_memory
-from torchshm.predictive.chunks import SUMMARY_CHUNK_BYTES, chunk_rows
+from torchshm.predictive.chunks import chunk_rows
+from torchshm.predictive.draws import SUMMARY_CHUNK_BYTES
 from torchshm.predictive.phases import line_method
 from torchshm.predictive.view import PredictionView, prediction_view
 
