@@ -134,7 +134,7 @@ def equal_tailed(samples: Tensor, level: float = 0.95,
 
     The quantiles are taken over ``chunk_bytes`` of the draws' points at a time (the same numbers
     as over all at once, without a copy of every draw); float32 draws give float64 summaries
-    (the mean summed in float64).
+    (the mean too is summed in float64 by chunks of points).
 
     Args:
         samples: `N x ...` draws (float64 or float32).
@@ -148,12 +148,14 @@ def equal_tailed(samples: Tensor, level: float = 0.95,
     tail = (1.0 - level) / 2.0
     chunk_bytes = SUMMARY_CHUNK_BYTES if chunk_bytes is None else chunk_bytes
     flat = samples.reshape(samples.shape[0], -1)
-    lower = np.empty(flat.shape[1])
-    upper = np.empty(flat.shape[1])
+    wide = samples.dtype == torch.float64  # float32: the mean by chunks too (torch's would copy all)
+    lower, upper, mean = (np.empty(flat.shape[1]) for _ in range(3))
     step = max(1, chunk_bytes // (8 * max(flat.shape[0], 1)))
     for start in range(0, flat.shape[1], step):
         block = flat[:, start:start + step].numpy().astype(np.float64, copy=False)
         lower[start:start + step], upper[start:start + step] = np.quantile(block, [tail, 1.0 - tail], axis=0)
-    mean = samples.mean(0) if samples.dtype == torch.float64 else samples.mean(0, dtype=torch.float64)
+        if not wide:
+            mean[start:start + step] = block.mean(axis=0)
     shape = samples.shape[1:]
-    return mean, torch.from_numpy(lower).reshape(shape), torch.from_numpy(upper).reshape(shape)
+    return (samples.mean(0) if wide else torch.from_numpy(mean).reshape(shape),
+            torch.from_numpy(lower).reshape(shape), torch.from_numpy(upper).reshape(shape))
