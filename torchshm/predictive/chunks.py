@@ -3,8 +3,9 @@
 A predictive of `N` draws at `L'` load cases and `n_x` points needs, besides the draws it keeps,
 transient arrays of the same size: the emulated responses and their variance, the emulator's
 noise, the standard normals of Eq. (21). Made for all `N` vectors at once they are about nine
-float64 copies of the draws (23 GB for 2000 draws of a camera's 155,792 points); made for
-:func:`row_chunks` of about :data:`CHUNK_BYTES` per copy they cost a few of those chunks.
+float64 copies of the draws (5.8 GiB for 500 draws of the camera example's 156,031 points, about
+21 GiB for 2000); made for :func:`row_chunks` of about :data:`CHUNK_BYTES` per copy they cost a
+few of those chunks (``docs/benchmarks.md``, "Posterior predictive of a camera's field").
 
 The random numbers are the same as all at once: each stream is drawn in the order the
 unchunked code draws it (all vectors' emulator noise, then per line all vectors' first term,
