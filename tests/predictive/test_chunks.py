@@ -88,3 +88,19 @@ def test_draw_lines_in_chunks_equal_line_draws(kernel: str, x: torch.Tensor, lin
     draw_lines(got, view, kernel, sigma_a, length, sigma_m, torch.Generator().manual_seed(3),
                chunks.row_chunks(45, got[0].numel(), budget=1), scale)
     torch.testing.assert_close(got, want, rtol=1e-12, atol=1e-9)
+
+
+@pytest.mark.parametrize("inferred_noise", [False, True])
+def test_field_draws_of_the_vecchia_factor_in_chunks_equal_line_draws(inferred_noise: bool) -> None:
+    """5041 points of a field (the full-scale form's draws: the Vecchia factor's solve), 32 draws
+    in two chunks, with one noise level or one per draw."""
+    x = torch.cartesian_prod(torch.linspace(0, 1, 71), torch.linspace(0, 1, 71))
+    view, rng = _view(x, 1), np.random.default_rng(0)
+    eta = torch.as_tensor(rng.normal(100.0, 30.0, (32, 1, x.shape[0])))
+    sigma_a, length = torch.as_tensor(rng.uniform(1.0, 3.0, (32, 1))), torch.as_tensor(rng.uniform(0.05, 0.1, (32, 1)))
+    scale = torch.as_tensor(rng.uniform(0.5, 2.0, 32)) if inferred_noise else None
+    want = line_draws(view, eta, "matern52", sigma_a, length, 0.02, torch.Generator().manual_seed(3), scale)
+    got = eta.clone()
+    draw_lines(got, view, "matern52", sigma_a, length, 0.02, torch.Generator().manual_seed(3),
+               chunks.row_chunks(32, x.shape[0], budget=1), scale)
+    torch.testing.assert_close(got, want, rtol=1e-12, atol=1e-9)
