@@ -16,8 +16,14 @@ measured points of every line (exact or interpolated positions, `n x d` coordina
 field) or the model's own positions; the emulator is fitted to the stored outputs mapped onto
 those points.
 
+Steps 3 and 4 run in chunks of posterior draws (:mod:`torchshm.predictive.chunks`,
+:mod:`torchshm.predictive.phases`) with the random numbers of all draws at once, so memory holds
+the result's arrays and a few chunks; a request that would not fit is refused before step 2
+(:mod:`torchshm.predictive.memory`).
+
 :func:`exact_predictive` follows the same steps with the same random numbers but evaluates the
-model itself in step 3; it exists to check the emulator and costs `n` model evaluations.
+model itself in step 3 (once, for every draw: its outputs are held whole); it exists to check
+the emulator and costs `n` model evaluations.
 """
 
 from __future__ import annotations
