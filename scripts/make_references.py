@@ -96,7 +96,7 @@ def reference(case: Case, seed: int = 1, n_importance: int = 20000, max_steps: i
                     "cpu_s": round(t_map, 1)},
             "chains": chains, "importance": imp, "mode_means": [np.round(s.mean(0), 5).tolist() for s in samples],
             "mode_sds": [np.round(s.std(0), 5).tolist() for s in samples],
-            "settings": {"moves": "DE 0.8 + DE snooker 0.2", "n_tau": 50, "burn": "max(300, 5 tau)",
+            "settings": {"moves": "DE 0.8 + DE gamma=1 0.2", "n_tau": 50, "burn": "max(300, 5 tau)",
                          "proposal": "equal mixture of multivariate t (df 4), 1.5 x chain sd, one per mode"},
             "cpu_s": round(time.process_time() - t0, 1)}
 
