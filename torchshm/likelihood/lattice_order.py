@@ -1,15 +1,12 @@
-"""Points on one regular grid, and a nested-dissection order of the grid's nodes.
+"""Points on one regular grid.
 
 :func:`lattice` tells whether `n x 2` coordinates lie on the nodes of one regular grid (a pitch
 per direction; holes, masks and repeated points allowed: the grid is the points' bounding box),
-as image-correlation (DIC) fields do; :func:`nested_dissection` orders the grid's nodes so that
-a sparse factorisation of a 9-point precision on it fills in little (recursive separator lines,
-the geometric nested dissection of George 1973), for :mod:`torchshm.likelihood.lattice`.
+as image-correlation (DIC) fields do, for :mod:`torchshm.likelihood.lattice`.
 """
 
 from __future__ import annotations
 
-import functools
 from typing import NamedTuple
 
 import numpy as np
@@ -20,8 +17,6 @@ SNAP = 1e-4
 #: the most grid nodes per point: sparser points (a far outlier, a pitch that is not a common
 #: divisor of the spacings) are not taken as a grid
 MOST_NODES_PER_POINT = 10
-#: regions of at most this many nodes are not dissected further
-LEAF = 16
 #: a spacing below this share of the extent is rounding, not a pitch
 ROUNDING = 1e-7
 
@@ -44,11 +39,6 @@ class Grid(NamedTuple):
     def node(self) -> np.ndarray:
         """`n` node numbers ``ix * Ny + iy`` (row-major, as ``kron(Qx, Qy)`` numbers them)."""
         return self.ix * self.shape[1] + self.iy
-
-    @property
-    def position(self) -> np.ndarray:
-        """`N` places of the nodes in :func:`nested_dissection`'s order."""
-        return _position(*self.shape)
 
 
 def _axis(v: np.ndarray) -> tuple[np.ndarray, int, float] | None:
@@ -86,42 +76,3 @@ def lattice(x: object) -> Grid | None:
     if nx * ny > MOST_NODES_PER_POINT * xs.shape[0]:
         return None
     return Grid(ix, iy, (nx, ny), (px, py))
-
-
-def nested_dissection(nx: int, ny: int, leaf: int = LEAF) -> np.ndarray:
-    """An elimination order `N` of the nodes ``i * ny + j`` of an `nx x ny` grid.
-
-    A region is split by the middle line across its longer side; its two halves come first
-    (each ordered the same way), the separator line last; regions of at most ``leaf`` nodes are
-    taken row by row. With the 9-point coupling of ``Qx ⊗ Qy`` one line separates.
-    """
-    rects: list[tuple[int, int, int, int]] = []  # the order's rectangles of nodes, in turn
-    todo: list[tuple[int, int, int, int, bool]] = [(0, nx, 0, ny, False)]
-    while todo:  # a stack of regions to dissect and separators to emit, in reverse
-        i0, i1, j0, j1, separator = todo.pop()
-        if separator or (i1 - i0) * (j1 - j0) <= leaf:
-            rects.append((i0, i1, j0, j1))
-        elif i1 - i0 >= j1 - j0:
-            m = (i0 + i1) // 2
-            todo += [(m, m + 1, j0, j1, True), (m + 1, i1, j0, j1, False), (i0, m, j0, j1, False)]
-        else:
-            m = (j0 + j1) // 2
-            todo += [(i0, i1, m, m + 1, True), (i0, i1, m + 1, j1, False), (i0, i1, j0, m, False)]
-    r = np.array([rect for rect in rects if rect[1] > rect[0] and rect[3] > rect[2]], dtype=np.int64)
-    if r.size == 0:
-        return np.zeros(0, dtype=np.int64)
-    width = r[:, 3] - r[:, 2]
-    size = (r[:, 1] - r[:, 0]) * width
-    which = np.repeat(np.arange(len(r)), size)  # each node's rectangle, row by row inside it
-    local = np.arange(int(size.sum())) - np.repeat(np.cumsum(size) - size, size)
-    return (r[which, 0] + local // width[which]) * ny + r[which, 2] + local % width[which]
-
-
-@functools.lru_cache(maxsize=4)
-def _position(nx: int, ny: int) -> np.ndarray:
-    """Inverse of :func:`nested_dissection` (read-only; cached per grid shape)."""
-    order = nested_dissection(nx, ny)
-    where = np.empty(order.size, dtype=np.int64)
-    where[order] = np.arange(order.size)
-    where.flags.writeable = False
-    return where
