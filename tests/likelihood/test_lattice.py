@@ -73,15 +73,15 @@ def test_elimination_is_numpys_determinant_and_solve(rng: np.random.Generator, s
 
 @pytest.mark.parametrize("sigma_m", [0.0, 0.05])
 def test_density_is_the_dense_gaussian(rng: np.random.Generator, sigma_m: float) -> None:
-    """~900 points with holes, 3 load cases, lengths from 0.3 pitch to 3 x the field,
-    heteroscedastic noise (sigma_m > 0, eta varying): equal to the dense Cholesky and to
-    scipy's multivariate normal to 1e-8 relative."""
+    """~900 points with holes, 3 load cases, lengths from 0.3 pitch to 3 x the field (and
+    sigma_a = 0), heteroscedastic noise (sigma_m > 0, eta varying): equal to the dense Cholesky
+    and to scipy's multivariate normal to 1e-8 relative."""
     x = torch.tensor(_field(rng))
     n = x.shape[0]
     extent = 40 * PX
-    ell = torch.tensor([0.3 * PX, 2 * PX, 0.3 * extent, extent, 3 * extent])
-    sa = torch.tensor([80.0, 300.0, 150.0, 300.0, 40.0])
-    eta = torch.tensor(rng.normal(300.0, 200.0, (5, 3, n)))
+    ell = torch.tensor([0.3 * PX, 2 * PX, 0.3 * extent, extent, 3 * extent, 0.01])
+    sa = torch.tensor([80.0, 300.0, 150.0, 300.0, 40.0, 0.0])  # the last: no discrepancy
+    eta = torch.tensor(rng.normal(300.0, 200.0, (6, 3, n)))
     y = torch.tensor(rng.normal(300.0, 200.0, (3, n)))
     kern = get_kernel(NAME)
     sparse = marginal.Eq21(eta, x, kern, sa, ell, sigma_m, 20.0)

@@ -75,7 +75,7 @@ def log_likelihood(
             tensor broadcastable to `...`.
         method: ``"auto"`` (default), ``"dense"``, ``"state_space"`` (1-D positions),
             ``"fullscale"`` or ``"vecchia"`` (`n x d` coordinates), ``"lattice"`` (kernel
-            ``separable_exponential`` on a regular grid, exact and sparse, no gradients).
+            ``separable_exponential`` on a regular grid, exact and sparse, on the CPU).
         extra_variance: `... x L x n` variance [µε²] added to the diagonal of each load case's
             covariance, or None: e.g. an emulator's predictive variance of ``eta``, which makes
             the density the exact marginal over a Gaussian error of ``eta``.

@@ -68,6 +68,9 @@ def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length
     node = torch.from_numpy(grid.node)
     out = []
     for b in range(r.shape[0]):
+        if bool(sa[b] == 0):  # no discrepancy: the diagonal alone
+            out.append(-0.5 * (r[b].square() / d[b] + d[b].log() + LOG_2PI).sum())
+            continue
         rx, sx = _factors(px, ell[b])
         ry, sy = _factors(py, ell[b])
         log_det_q = -ny * (nx - 1) * sx.log() - nx * (ny - 1) * sy.log() - 2.0 * nx * ny * sa[b].log()

@@ -12,7 +12,7 @@ the posterior predictive draws (Eq. 15), from the same covariance, in one of the
 ``"vecchia"`` and ``"fullscale"`` (fields of `n x d` coordinates, approximate), all
 differentiable on CPU or CUDA; ``"upscaled"`` (kernel ``upscaled``, exact, sparse, NumPy/SciPy,
 :mod:`~torchshm.likelihood.upscaled`) and ``"lattice"`` (kernel ``separable_exponential`` on a
-regular grid, exact, sparse, NumPy/SciPy, :mod:`~torchshm.likelihood.lattice`). ``method="auto"``
+regular grid, exact, sparse, differentiable, CPU, :mod:`~torchshm.likelihood.lattice`). ``method="auto"``
 (:func:`~torchshm.likelihood.choice.choose_method`) takes the state space from
 :data:`STATE_SPACE_FROM` points per load case, the full-scale form for fields from
 :data:`VECCHIA_FROM`, and refuses, with one line, a dense covariance that would not fit in memory.
