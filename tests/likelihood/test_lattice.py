@@ -178,3 +178,43 @@ def test_draws_of_a_large_grid_without_noise_take_the_lattice() -> None:
                            torch.Generator().manual_seed(2))
     assert got.shape == (1, 1, 120_000)
     assert float(got.square().mean()) == pytest.approx(9.0, rel=0.05)
+
+
+class _Field:
+    """A linear model of an `n x 2` field: ``a(x, y, load) 30 / E_c + b(x, y, load) log10_K_r`` [µε]."""
+
+    names = ("E_c", "log10_K_r")
+
+    def __init__(self, x: np.ndarray) -> None:
+        self.x = torch.tensor(x)
+        self.loads = torch.tensor([10.0, 20.0])
+        self.a = 40.0 * torch.sin(60.0 * self.x[None, :, 0] + self.loads[:, None])
+        self.b = torch.cos(90.0 * self.x[None, :, 1] - self.loads[:, None])
+
+    def __call__(self, theta_p: torch.Tensor) -> torch.Tensor:
+        theta_p = torch.as_tensor(theta_p, dtype=torch.float64)
+        return self.a * (30.0 / theta_p[..., 0, None, None]) + self.b * theta_p[..., 1, None, None]
+
+    @staticmethod
+    def default_priors() -> dict:
+        from torchshm.casestudy import paper_priors
+
+        return paper_priors()
+
+
+def test_a_problem_on_a_field_evaluates_as_the_dense_path(rng: np.random.Generator) -> None:
+    """``torchshm.Problem`` with ``kernel="separable_exponential"`` on a 15 x 12 field with holes
+    (the lattice form) equals the same problem with the kernel forced dense, to 1e-9."""
+    from torchshm.kernels.separable import SeparableExponential
+
+    class DenseOnly(SeparableExponential):  # the same kernel without its sparse form
+        form = None
+
+    x = _field(rng, 15, 12)
+    model = _Field(x)
+    y = model(torch.tensor([33.0, 11.5])).numpy() + rng.normal(0.0, 0.5, (2, len(x)))
+    meas = torchshm.Measurements(x, y, [10.0, 20.0], sigma_e=0.5)
+    theta = np.array([[33.0, 11.5, 0.9, 0.02], [30.0, 11.0, 2.0, 0.1]])
+    sparse = torchshm.Problem(model, meas, kernel="separable_exponential").log_likelihood(theta)
+    dense = torchshm.Problem(model, meas, kernel=DenseOnly()).log_likelihood(theta)
+    np.testing.assert_allclose(sparse, dense, rtol=1e-9)
