@@ -56,7 +56,7 @@ def _ar1(size: int, rho: float) -> np.ndarray:
     return q / (1.0 - rho**2)
 
 
-@pytest.mark.parametrize("shape", [(5, 3), (1, 30), (33, 2), (70, 41)])
+@pytest.mark.parametrize("shape", [(5, 3), (1, 30), (33, 2), (50, 31)])
 def test_elimination_is_numpys_determinant_and_solve(rng: np.random.Generator, shape: tuple[int, int]) -> None:
     """The multifrontal pass over the dissection (every node eliminated once, children first)
     gives log det M and bᵀ M⁻¹ b of M = Qx ⊗ Qy / sa² + diag(w) to 1e-12."""
