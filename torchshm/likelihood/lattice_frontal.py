@@ -56,7 +56,7 @@ def _gather(sources: list[Tensor], assembly: tuple[Tensor, Tensor, Tensor]) -> T
     gather, places, entries = assembly
     joined = torch.cat(sources + [sources[-1].new_zeros(sources[-1].shape[0], 1, *sources[-1].shape[2:])], 1)
     out = joined.index_select(1, gather)
-    return out.index_add(1, places, joined.index_select(1, entries)) if places.numel() else out
+    return out.index_add_(1, places, joined.index_select(1, entries)) if places.numel() else out
 
 
 def eliminate(shape: tuple[int, int], factors: tuple[Tensor, Tensor, Tensor, Tensor], scale: Tensor,
