@@ -41,11 +41,16 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.cases import case_hash, make_problem  # noqa: E402
 from benchmarks.catalog import CASES  # noqa: E402
+from benchmarks.holdout import HOLDOUT  # noqa: E402
 from benchmarks.methods import TimedModel, run_method  # noqa: E402
 
 REFS = ROOT / "benchmarks" / "references"
 DOC = ROOT / "docs" / "benchmarks.md"
 BEGIN, END = "<!-- suite:begin -->", "<!-- suite:end -->"
+#: the held-out cases' table (``--holdout``) has markers and a section of its own
+HOLDOUT_MARKS = ("<!-- holdout:begin -->", "<!-- holdout:end -->")
+#: every case a row may name: the suite's and the held-out ones
+KNOWN = {**CASES, **HOLDOUT}
 METHODS = ("emulator", "vbmc", "gpry")
 #: the cases GPry runs on by default: the 2- and 4-parameter ones (see docs/benchmarks.md)
 GPRY_CASES = [name for name, case in CASES.items() if case.n_physical in (2, 4)]
@@ -71,7 +76,7 @@ def run_task(task: tuple[str, str, bool, int]) -> dict:
     """One row: ``method`` on case ``name`` (``quick``, ``seed``), on one torch thread."""
     torch.set_num_threads(1)
     name, method, quick, seed = task
-    case = CASES[name]
+    case = KNOWN[name]
     path = REFS / f"{name}.json"
     ref = json.loads(path.read_text()) if path.exists() else None
     stale = ref is not None and ref["case_hash"] != case_hash(case)
@@ -112,9 +117,9 @@ def _f(v: object, fmt: str) -> str:
     return "" if v is None else format(v, fmt)
 
 
-def table(rows: list[dict], header: str) -> str:
+def table(rows: list[dict], header: str, marks: tuple[str, str] = (BEGIN, END)) -> str:
     """The markdown section: per case x method rows, then per-method summaries."""
-    lines = [BEGIN, "", header, "",
+    lines = [marks[0], "", header, "",
              "| case | P | method | runs | rounds (5 workers) | wall, 10-min model [h] | max \\|Δmean\\|/sd "
              "| sd ratio | Δlog Z | own CPU [s] | converged | error |",
              "| --- | ---: | --- | ---: | ---: | ---: | ---: | --- | ---: | ---: | --- | --- |"]
@@ -149,17 +154,18 @@ def table(rows: list[dict], header: str) -> str:
     if with_gpry and without:
         lines += ["", f"No GPry row for {', '.join(without)}: GPry runs on the cases of `--gpry-cases` only "
                   "(default: the 2- and 4-parameter ones), its own compute being minutes per case."]
-    lines += ["", END]
+    lines += ["", marks[1]]
     return "\n".join(lines)
 
 
-def write_doc(section: str) -> None:
-    """Replace the marked section of docs/benchmarks.md (append it the first time)."""
+def write_doc(section: str, marks: tuple[str, str] = (BEGIN, END),
+              title: str = "Identification suite (`scripts/bench_identification.py`)") -> None:
+    """Replace the marked section of docs/benchmarks.md (append it under ``title`` the first time)."""
     text = DOC.read_text()
-    if BEGIN in text and END in text:
-        text = text[: text.index(BEGIN)] + section + text[text.index(END) + len(END):]
+    if marks[0] in text and marks[1] in text:
+        text = text[: text.index(marks[0])] + section + text[text.index(marks[1]) + len(marks[1]):]
     else:
-        text = text.rstrip("\n") + "\n\n## Identification suite (`scripts/bench_identification.py`)\n\n" + section + "\n"
+        text = text.rstrip("\n") + f"\n\n## {title}\n\n" + section + "\n"
     DOC.write_text(text)
 
 
@@ -169,7 +175,7 @@ def rescore(files: list[Path]) -> tuple[list[dict], list]:
     rows = [r for s in saved for r in s["rows"]]
     for row in rows:
         path = REFS / f"{row['case']}.json"
-        now = case_hash(CASES[row["case"]])
+        now = case_hash(KNOWN[row["case"]])
         if row.get("case_hash", now) != now or row.get("reference") == "old definition":
             row["reference"] = "old definition"  # the row ran on an earlier definition of the case
             for key in ("max_dmean_sd", "sd_ratio_min", "sd_ratio_max", "dlog_z"):
@@ -200,9 +206,11 @@ def header(meta: list, n_files: int) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(KNOWN))
+    parser.add_argument("--holdout", action="store_true", help="the held-out cases (benchmarks/holdout.py) "
+                        "instead of the suite's; their table goes to its own section of docs/benchmarks.md")
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=[*METHODS, "emcee"])
-    parser.add_argument("--gpry-cases", nargs="+", default=GPRY_CASES, choices=list(CASES),
+    parser.add_argument("--gpry-cases", nargs="+", default=GPRY_CASES, choices=list(KNOWN),
                         help="the cases GPry runs on (default: the 2- and 4-parameter ones; minutes of CPU each)")
     parser.add_argument("--jobs", type=int, default=1, help="(case, method) runs at a time, in separate processes")
     parser.add_argument("--quick", action="store_true", help="tiny budgets (a smoke run, not a benchmark)")
@@ -212,6 +220,8 @@ def main() -> None:
     parser.add_argument("--rescore", type=Path, nargs="+", help="score the rows of earlier --out files "
                         "again (e.g. after making references; several: runs split by --methods) instead of running")
     args = parser.parse_args()
+    if args.holdout:
+        args.cases = [c for c in args.cases if c in HOLDOUT] or list(HOLDOUT)
     if os.environ.get("TORCHSHM_SMOKE") == "1":  # a check that it runs (docs test), no figures
         args.cases, args.methods, args.quick, args.no_docs = args.cases[:1], args.methods[:1], True, True
         print(f"TORCHSHM_SMOKE=1: --quick, {args.cases} with {args.methods} only, docs/benchmarks.md left as it is")
@@ -233,12 +243,15 @@ def main() -> None:
         rows = run_all(tasks, args.jobs, save)
         meta = [start, load0, os.getloadavg(), command]
         save(rows)
-    order = {c: i for i, c in enumerate(CASES)}
+    order = {c: i for i, c in enumerate(KNOWN)}
     rows.sort(key=lambda r: (order[r["case"]], [*METHODS, "emcee"].index(r["method"])))
-    section = table(rows, header(meta, len(args.rescore or [None])))
+    holdout = all(r["case"] in HOLDOUT for r in rows)
+    marks = HOLDOUT_MARKS if holdout else (BEGIN, END)
+    section = table(rows, header(meta, len(args.rescore or [None])), marks)
     print(section)
     if not args.no_docs:
-        write_doc(section)
+        write_doc(section, marks, "Held-out cases (`scripts/bench_identification.py --holdout`)" if holdout
+                  else "Identification suite (`scripts/bench_identification.py`)")
 
 
 if __name__ == "__main__":

@@ -12,6 +12,7 @@ Usage (from the repository root)::
 
     OMP_NUM_THREADS=1 python scripts/make_references.py --all
     OMP_NUM_THREADS=1 python scripts/make_references.py --case beam2_saturating --case plate2_field
+    OMP_NUM_THREADS=1 python scripts/make_references.py --holdout  # the held-out cases
 """
 
 from __future__ import annotations
@@ -32,9 +33,12 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.cases import Case, case_hash, make_problem, truth_vector  # noqa: E402
 from benchmarks.catalog import CASES  # noqa: E402
+from benchmarks.holdout import HOLDOUT  # noqa: E402
 from benchmarks.reference import direct_log_joint, find_modes, importance, run_chain  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "references"
+#: every case a reference may be made for: the suite's and the held-out ones
+KNOWN = {**CASES, **HOLDOUT}
 QUANTILES = (0.025, 0.16, 0.5, 0.84, 0.975)
 SMOKE = os.environ.get("TORCHSHM_SMOKE") == "1"  # tiny sizes: a check that it runs (docs test), no figures
 
@@ -104,19 +108,20 @@ def rehash(name: str) -> None:
         print(f"{name}: no reference")
         return
     ref = json.loads(path.read_text())
-    value = float(direct_log_joint(make_problem(CASES[name]))(np.asarray(ref["map"]["modes"][0]))[0])
+    value = float(direct_log_joint(make_problem(KNOWN[name]))(np.asarray(ref["map"]["modes"][0]))[0])
     if abs(value - ref["map"]["optimum_per_start"][0]) > 1e-3:
         print(f"{name}: changed (log joint at the MAP {value:.3f}, was {ref['map']['optimum_per_start'][0]})")
         return
-    ref["case_hash"] = case_hash(CASES[name])
+    ref["case_hash"] = case_hash(KNOWN[name])
     path.write_text(json.dumps(ref, indent=1) + "\n")
     print(f"{name}: unchanged, hash {ref['case_hash']}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--case", action="append", default=[], choices=list(CASES))
-    parser.add_argument("--all", action="store_true")
+    parser.add_argument("--case", action="append", default=[], choices=list(KNOWN))
+    parser.add_argument("--all", action="store_true", help="every case of the suite")
+    parser.add_argument("--holdout", action="store_true", help="every held-out case (benchmarks/holdout.py)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--rehash", action="store_true", help="only renew the definition hash of existing "
                         "references whose problem is unchanged (same log joint at their MAP, to 1e-3 nats)")
@@ -124,16 +129,16 @@ def main() -> None:
     torch.set_num_threads(1)
     OUT.mkdir(parents=True, exist_ok=True)
     if args.rehash:
-        for name in (list(CASES) if args.all else args.case):
+        for name in (list(CASES) if args.all else list(HOLDOUT) if args.holdout else args.case):
             rehash(name)
         return
-    names, out, budget = (list(CASES) if args.all else args.case), OUT, {}
+    names, out, budget = (list(CASES) if args.all else list(HOLDOUT) if args.holdout else args.case), OUT, {}
     if SMOKE:  # written beside the references, never over them
         names, out, budget = names[:1], OUT / "smoke", {"n_importance": 500, "max_steps": 500}
         out.mkdir(exist_ok=True)
         print(f"TORCHSHM_SMOKE=1: {names} only, short chains, into {out}: a check that the script runs")
     for name in names:
-        ref = reference(CASES[name], args.seed, **budget)
+        ref = reference(KNOWN[name], args.seed, **budget)
         (out / f"{name}.json").write_text(json.dumps(ref, indent=1) + "\n")
         c = ref["chains"]
         print(f"{name}: modes {len(c)}, tau max {max(max(x['tau']) for x in c):.0f}, steps {c[0]['steps']}, "

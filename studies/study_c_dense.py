@@ -22,6 +22,8 @@ import numpy as np
 import torch
 
 import torchshm
+from torchshm.predictive import prediction_view
+from torchshm.predictive.memory import check_memory
 
 INFER = [10.5, 16.9, 24.5, 32.2, 39.8, 47.5, 55.1, 62.8, 78.1, 85.7, 99.9]
 PREDICT = [70.4]
@@ -33,10 +35,12 @@ def run_pitch(pitch: float, args: argparse.Namespace) -> dict[str, object]:
     model = torchshm.bridge705(pitch=pitch)
     data = torchshm.synthetic_campaign(seed=0, pitch=pitch)
     problem = torchshm.Problem(model, data.select(INFER), kernel="matern32")
+    check_memory(prediction_view(problem), len(PREDICT), args.n_predict, "summary", problem.kernel,
+                 what=("--n-predict", "PREDICT"))  # before the identification, not after it
     t1 = time.perf_counter()
     post = torchshm.identify(problem, method="vbmc", seed=0, max_fun_evals=args.max_fun_evals)
     t2 = time.perf_counter()
-    pred = torchshm.posterior_predictive(post, PREDICT, n=args.n_predict)
+    pred = torchshm.posterior_predictive(post, PREDICT, n=args.n_predict, keep="summary")
     t3 = time.perf_counter()
     observed = torch.as_tensor(data.select(PREDICT).y)
     coarse = torch.as_tensor(np.isclose((data.x - 35.0) / 0.1, np.round((data.x - 35.0) / 0.1), atol=1e-6))

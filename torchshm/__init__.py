@@ -42,6 +42,7 @@ _EXPORTS: dict[str, str] = {
     "Posterior": "torchshm.inference",
     "load_posterior": "torchshm.inference",
     "posterior_predictive": "torchshm.predictive",
+    "predictive_memory": "torchshm.predictive",
     "bayes_factors": "torchshm.predictive",
     "kl_divergence": "torchshm.predictive",
 }

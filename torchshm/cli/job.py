@@ -194,8 +194,9 @@ def prepare_job(settings: Config, base: Path) -> PreparedJob:
 
     Raises:
         ValueError, OSError: for bad input (missing or malformed file, unknown load case, bad
-            priors or method options, see :mod:`torchshm.inference.validate`), after at most
-            one model run (the check of the output's shape and dtype).
+            priors or method options, see :mod:`torchshm.inference.validate`; a held-out
+            predictive of ``predict.n`` draws that would not fit in memory), after at most one
+            model run (the check of the output's shape and dtype).
     """
     t0 = time.perf_counter()
     if settings.predict.n < 1:
@@ -205,12 +206,25 @@ def prepare_job(settings: Config, base: Path) -> PreparedJob:
     held_out = measurements.select(settings.predict.loads) if settings.predict.loads else None
     model = build_model(settings, base)
     problem = build_problem(settings, model, measurements, base, priors)
+    if held_out is not None:  # the held-out predictive comes after inference: refused now, not then
+        check_predictive_memory(problem, len(held_out.loads), settings.predict.n)
     method, options = settings.method.name, method_options(settings.method)
     validate(problem, method, settings.seed, None, options)  # one line naming the input, the fix
     check_model_output(problem, method, settings.seed, options)  # at most one model run
     n_checked = int(problem.n_model_evaluations)  # counted with the run's (run_job)
     labels = parameter_labels(settings.priors, model.model if isinstance(model, ParallelModel) else model)
     return PreparedJob(settings, problem, measurements, held_out, t0, labels, model, n_checked)
+
+
+def check_predictive_memory(problem: Problem, n_loads: int, n: int) -> None:
+    """Refuse ``predict.n`` draws of ``n_loads`` held-out load cases that would not fit in
+    memory (:func:`~torchshm.predictive.memory.check_memory`, the command line keeps float32
+    draws: ``keep="summary"``), in one line naming the need and the fix."""
+    from torchshm.predictive.memory import check_memory
+    from torchshm.predictive.view import prediction_view
+
+    check_memory(prediction_view(problem), n_loads, n, "summary", problem.kernel,
+                 what=("predict.n", "predict.loads"))
 
 
 def run_job(job: PreparedJob, out_dir: Path) -> JobResult:

@@ -114,7 +114,8 @@ def write_predictive(
     log.info("posterior predictive of the held-out load case(s) %s (%d draws)",
              [float(v) for v in held_out.loads], n)
     try:
-        pred = torchshm.posterior_predictive(post, [float(v) for v in held_out.loads], n=n, seed=seed)
+        pred = torchshm.posterior_predictive(post, [float(v) for v in held_out.loads], n=n, seed=seed,
+                                             keep="summary")  # scores and maps: float32 draws suffice
     except ValueError as err:
         log.warning("posterior predictive skipped: %s", err)
         return [], {}

@@ -7,6 +7,7 @@ from torchshm.predictive.check import EmulatorCheck, emulator_check
 from torchshm.predictive.draws import predictive_draws
 from torchshm.predictive.emulator import fit_emulator
 from torchshm.predictive.kl import KLEstimate, kl_divergence
+from torchshm.predictive.memory import predictive_memory
 from torchshm.predictive.metrics import (
     PredictiveMetrics,
     coverage,
@@ -40,6 +41,7 @@ __all__ = [
     "mse",
     "posterior_predictive",
     "predictive_draws",
+    "predictive_memory",
     "prediction_view",
     "predictive_metrics",
     "r2_score",

@@ -10,8 +10,9 @@ by :meth:`torchshm.likelihood.marginal.Eq21.sample`, the distribution the likeli
 ``chol(K + sigma_e**2 I)`` (dense) or, for the Markov kernels at
 :data:`~torchshm.likelihood.marginal.STATE_SPACE_FROM` points and more, through the kernel's
 state-space form in O(n) (kernel ``separable_exponential`` on a regular grid: the AR(1)
-recursion along each axis, :func:`torchshm.likelihood.lattice.sample`). The discrepancy is drawn per load case, as the likelihood treats load
-cases as independent (block-diagonal covariance).
+recursion along each axis, :func:`torchshm.likelihood.lattice.sample`). The discrepancy is
+drawn per load case, as the likelihood treats load cases as independent (block-diagonal
+covariance).
 """
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ from torchshm.likelihood.statespace import BATCH_STATE_SPACE_FROM, is_markov
 
 #: 1-D lines of a Markov kernel from this many points are drawn by the O(n) state space
 STATE_SPACE_FROM = BATCH_STATE_SPACE_FROM
+#: bytes of the float64 draws of the points summarised at once (:func:`equal_tailed`)
+SUMMARY_CHUNK_BYTES = 2**26
 
 if TYPE_CHECKING:
     from torchshm.predictive.view import PredictionView
@@ -128,16 +131,34 @@ def line_draws(
     return out
 
 
-def equal_tailed(samples: Tensor, level: float = 0.95) -> tuple[Tensor, Tensor, Tensor]:
+def equal_tailed(samples: Tensor, level: float = 0.95,
+                 chunk_bytes: int | None = None) -> tuple[Tensor, Tensor, Tensor]:
     """Mean and equal-tailed interval of draws along the first dimension.
 
+    The quantiles are taken over ``chunk_bytes`` of the draws' points at a time (the same numbers
+    as over all at once, without a copy of every draw); float32 draws give float64 summaries
+    (the mean too is summed in float64 by chunks of points).
+
     Args:
-        samples: `N x ...` draws.
+        samples: `N x ...` draws (float64 or float32).
         level: probability content of the interval.
+        chunk_bytes: bytes of float64 draws summarised at once (default
+            :data:`SUMMARY_CHUNK_BYTES`).
 
     Returns:
-        ``(mean, lower, upper)``, each of shape `...`.
+        ``(mean, lower, upper)``, each of shape `...`, float64.
     """
     tail = (1.0 - level) / 2.0
-    lower, upper = np.quantile(samples.numpy(), [tail, 1.0 - tail], axis=0)
-    return samples.mean(0), torch.from_numpy(lower), torch.from_numpy(upper)
+    chunk_bytes = SUMMARY_CHUNK_BYTES if chunk_bytes is None else chunk_bytes
+    flat = samples.reshape(samples.shape[0], -1)
+    wide = samples.dtype == torch.float64  # float32: the mean by chunks too (torch's would copy all)
+    lower, upper, mean = (np.empty(flat.shape[1]) for _ in range(3))
+    step = max(1, chunk_bytes // (8 * max(flat.shape[0], 1)))
+    for start in range(0, flat.shape[1], step):
+        block = flat[:, start:start + step].numpy().astype(np.float64, copy=False)
+        lower[start:start + step], upper[start:start + step] = np.quantile(block, [tail, 1.0 - tail], axis=0)
+        if not wide:
+            mean[start:start + step] = block.mean(axis=0)
+    shape = samples.shape[1:]
+    return (samples.mean(0) if wide else torch.from_numpy(mean).reshape(shape),
+            torch.from_numpy(lower).reshape(shape), torch.from_numpy(upper).reshape(shape))

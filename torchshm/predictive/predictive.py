@@ -16,8 +16,14 @@ measured points of every line (exact or interpolated positions, `n x d` coordina
 field) or the model's own positions; the emulator is fitted to the stored outputs mapped onto
 those points.
 
+Steps 3 and 4 run in chunks of posterior draws (:mod:`torchshm.predictive.chunks`,
+:mod:`torchshm.predictive.phases`) with the random numbers of all draws at once, so memory holds
+the result's arrays and a few chunks; a request that would not fit is refused before step 2
+(:mod:`torchshm.predictive.memory`).
+
 :func:`exact_predictive` follows the same steps with the same random numbers but evaluates the
-model itself in step 3; it exists to check the emulator and costs `n` model evaluations.
+model itself in step 3 (once, for every draw: its outputs are held whole); it exists to check
+the emulator and costs `n` model evaluations.
 """
 
 from __future__ import annotations
@@ -31,8 +37,10 @@ import torch
 from torch import Tensor
 
 from torchshm.kernels import get_kernel
-from torchshm.predictive.draws import line_draws
+from torchshm.predictive.chunks import DrawStore, add_emulator_noise, fill_responses, row_chunks
 from torchshm.predictive.emulator import fit_emulator, transform_options
+from torchshm.predictive.memory import check_memory
+from torchshm.predictive.phases import draw_lines
 from torchshm.predictive.result import PredictiveResult
 from torchshm.predictive.selection import load_index, parameter_columns, problem_of, random_streams
 from torchshm.predictive.view import PredictionView, prediction_view
@@ -51,6 +59,7 @@ SURROGATE_VARIANCE_RATIO = 0.01
 MAX_TRAINING_POINTS = 400
 
 Positions = Literal["measured", "model"]
+Keep = Literal["draws", "summary"]
 
 
 def posterior_predictive(
@@ -63,8 +72,14 @@ def posterior_predictive(
     problem: Problem | None = None,
     level: float = 0.95,
     emulator_options: dict[str, Any] | None = None,
+    keep: Keep = "draws",
 ) -> PredictiveResult:
     """Posterior predictive strains at load cases, with no new model evaluations.
+
+    The draws are made in chunks of posterior draws (:mod:`torchshm.predictive.chunks`): the
+    result's arrays and a few chunks are all it holds, and it refuses, before fitting the
+    emulator, a request that would need more than half of the machine's memory
+    (:func:`~torchshm.predictive.memory.predictive_memory`).
 
     Args:
         post: a posterior (``names``, ``sample(n, rng)``, ``problem``), from VBMC or emcee.
@@ -81,6 +96,9 @@ def posterior_predictive(
         level: probability content of the equal-tailed interval.
         emulator_options: keywords of :func:`~torchshm.predictive.emulator.fit_emulator`
             (``transform``, ``kernel``, ...) overriding the defaults.
+        keep: ``"draws"`` keeps the float64 draws ``samples`` and responses ``eta``;
+            ``"summary"`` keeps the draws as float32 and no ``eta`` (a quarter of the memory;
+            mean and bounds equal the float64 ones to float32 round-off).
 
     Returns:
         A :class:`PredictiveResult` with `L' x n_x` mean and bounds, `n x L' x n_x` draws, the
@@ -88,35 +106,45 @@ def posterior_predictive(
 
     Raises:
         ValueError: without a problem, without stored evaluations (e.g. an emcee run whose
-            problem kept no outputs), for an unknown load case or a bad option.
+            problem kept no outputs), for an unknown load case or a bad option, or draws that
+            would not fit in memory (naming the need and the fix).
     """
     if include_surrogate_variance not in ("auto", True, False):
         raise ValueError(f"include_surrogate_variance must be 'auto', True or False, got {include_surrogate_variance!r}")
     problem = problem_of(post, problem)
     view = prediction_view(problem, positions)
+    n_loads = len(load_index(problem.model, loads))
+    check_memory(view, n_loads, n, keep, problem.kernel)  # before the emulator's fit
     emulator = _emulator(problem, view, loads, seed, emulator_options)
     loads_t = emulator.loads
     streams = random_streams(seed)
     theta = np.asarray(post.sample(n, streams.theta), dtype=np.float64)
     theta_p, sigma_a, length = parameter_columns(problem, list(post.names), theta)
-    with torch.no_grad():
-        eta, var = emulator.predict(theta_p)
-    sd = var.clamp_min(0.0).sqrt()
-    max_sd = float(sd.max())
+    theta_p = torch.as_tensor(theta_p)
+
+    def source(rows: slice) -> tuple[Tensor, Tensor]:
+        with torch.no_grad():
+            return emulator.predict(theta_p[rows])
+
+    store = DrawStore.empty((n, len(loads_t), view.x.shape[0]), keep)
+    chunks = row_chunks(n, len(loads_t) * view.x.shape[0])
+    forced = streams.emulator if include_surrogate_variance is True else None
+    max_sd = fill_responses(store, chunks, source, forced)
     sigma_m, sigma_e_scale = _noise_levels(problem, theta)
     if include_surrogate_variance == "auto":
         smallest = min(part.sigma_e for part in view.parts)  # the quietest line decides
         if sigma_e_scale is not None:  # an inferred σe: its smallest draw
             smallest *= float(sigma_e_scale.min())
         used = max_sd**2 > SURROGATE_VARIANCE_RATIO * smallest**2
+        if used:
+            add_emulator_noise(store, chunks, source, streams.emulator)
     else:
         used = bool(include_surrogate_variance)
-    if used:
-        eta = eta + sd * torch.randn(eta.shape, generator=streams.emulator, dtype=torch.float64)
-    logger.info("posterior predictive: drawing %d strain fields at %d load case(s)", n, len(loads_t))
-    samples = _draw(problem, view, eta, theta, sigma_a, length, streams.noise)
+    logger.info("posterior predictive: drawing %d strain fields at %d load case(s) in %d chunk(s)",
+                n, len(loads_t), len(chunks))
+    _draw(problem, view, store, theta, sigma_a, length, streams.noise, chunks)
     return PredictiveResult.from_draws(
-        samples, view.x, loads_t, level, theta, list(post.names), eta, used, max_sd,
+        store.out, view.x, loads_t, level, theta, list(post.names), store.eta, used, max_sd,
         int(emulator.theta_p.shape[0]), line=view.line,
     )
 
@@ -146,12 +174,15 @@ def exact_predictive(
     theta_p, sigma_a, length = parameter_columns(problem, list(post.names), theta)
     with torch.no_grad():
         out = torch.as_tensor(model(torch.as_tensor(theta_p)), dtype=torch.float64)
-    eta = view.apply(out[:, loads_idx])
+    store = DrawStore.empty((n, len(loads_idx), view.x.shape[0]), "draws")
+    chunks = row_chunks(n, len(loads_idx) * view.x.shape[0])
+    fill_responses(store, chunks, lambda rows: (view.apply(out[rows][:, loads_idx]), None))
+    del out
     logger.info("posterior predictive: drawing %d strain fields at %d load case(s)", n, len(loads_idx))
-    samples = _draw(problem, view, eta, theta, sigma_a, length, streams.noise)
+    _draw(problem, view, store, theta, sigma_a, length, streams.noise, chunks)
     return PredictiveResult.from_draws(
-        samples, view.x, _loads_tensor(problem.model, loads_idx), level, theta, list(post.names),
-        eta, False, 0.0, 0, line=view.line,
+        store.out, view.x, _loads_tensor(problem.model, loads_idx), level, theta, list(post.names),
+        store.eta, False, 0.0, 0, line=view.line,
     )
 
 
@@ -212,13 +243,14 @@ def _training_data(problem: Problem, loads_idx: Tensor, view: PredictionView, se
     return theta_p, view.apply(outputs[:, loads_idx])
 
 
-def _draw(problem: Problem, view: PredictionView, eta: Tensor, theta: np.ndarray, sigma_a: Tensor,
-          length: Tensor | None, generator: torch.Generator) -> Tensor:
-    """Predictive draws `n x L' x n_x`, line by line, with the problem's kernel, ``sigma_m``
-    and each line's ``sigma_e`` (per posterior draw `theta` `n x D` where they are inferred)."""
+def _draw(problem: Problem, view: PredictionView, store: DrawStore, theta: np.ndarray, sigma_a: Tensor,
+          length: Tensor | None, generator: torch.Generator, chunks: list[slice]) -> None:
+    """The stored responses become predictive draws `n x L' x n_x`, line by line, with the
+    problem's kernel, ``sigma_m`` and each line's ``sigma_e`` (per posterior draw `theta`
+    `n x D` where they are inferred)."""
     sigma_m, sigma_e_scale = _noise_levels(problem, theta)
-    return line_draws(view, eta, get_kernel(problem.kernel), sigma_a, length, sigma_m, generator,
-                      sigma_e_scale)
+    draw_lines(store.out, view, get_kernel(problem.kernel), sigma_a, length, sigma_m, generator,
+               chunks, sigma_e_scale)
 
 
 def _noise_levels(problem: Problem, theta: np.ndarray) -> tuple[float | Tensor, Tensor | None]:

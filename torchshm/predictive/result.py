@@ -22,13 +22,15 @@ class PredictiveResult:
     Attributes:
         mean: `L' x n_x` predictive mean [µε].
         lower, upper: `L' x n_x` bounds of the equal-tailed interval [µε].
-        samples: `n x L' x n_x` predictive draws [µε].
+        samples: `n x L' x n_x` predictive draws [µε]: float64, or float32 for
+            ``keep="summary"`` (:func:`~torchshm.predictive.posterior_predictive`).
         x: `n_x` positions along their line [m], or `n_x x d` coordinates [m].
         loads: `L'` load cases (front-axle positions [m]).
         level: probability content of the interval (0.95).
         theta: `n x D` posterior draws used, columns named by :attr:`names`.
         names: `D` parameter names.
-        eta: `n x L' x n_x` model responses at the draws (emulated or exact) [µε].
+        eta: `n x L' x n_x` float64 model responses at the draws (emulated or exact) [µε],
+            or ``None`` for ``keep="summary"``.
         surrogate_variance_used: whether the emulator's variance was added to ``eta``.
         max_surrogate_sd: largest emulator standard deviation at the draws [µε] (0 when exact).
         n_training: stored model evaluations the emulator was trained on (0 when exact).
@@ -44,7 +46,7 @@ class PredictiveResult:
     level: float
     theta: np.ndarray
     names: list[str]
-    eta: Tensor
+    eta: Tensor | None
     surrogate_variance_used: bool
     max_surrogate_sd: float
     n_training: int
@@ -53,10 +55,11 @@ class PredictiveResult:
     @classmethod
     def from_draws(
         cls, samples: Tensor, x: Tensor, loads: Tensor, level: float, theta: np.ndarray,
-        names: list[str], eta: Tensor, used: bool, max_sd: float, n_training: int,
+        names: list[str], eta: Tensor | None, used: bool, max_sd: float, n_training: int,
         line: np.ndarray | None = None,
     ) -> PredictiveResult:
-        """Summarise `n x L' x n_x` draws into mean and equal-tailed bounds."""
+        """Summarise `n x L' x n_x` draws into mean and equal-tailed bounds (by chunks of
+        points, :func:`~torchshm.predictive.draws.equal_tailed`)."""
         mean, lower, upper = equal_tailed(samples, level)
         return cls(mean, lower, upper, samples, x, loads, level, theta, names, eta, used,
                    max_sd, n_training, line)

@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import torch
 
+from torchshm.inference.adaptive import cost
 from torchshm.inference.adaptive import modes as mode_search
 from torchshm.inference.adaptive import sampling
 from torchshm.inference.adaptive.acquisition import choose_batch, design
@@ -150,6 +151,9 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                [i for i, n in enumerate(problem.physical_names) if n in names])
     n_modes = 1
     x_index, loads = torch.arange(problem.y.shape[1], dtype=torch.float64), _loads(problem)
+    if budget > 0:  # the own compute to expect, before the first model run
+        cost.announce(problem, cost.estimate(problem, n_walkers, n_steps, final_steps, n_evidence,
+                                             np.random.default_rng([seed, 31])))
     if n_reused:
         where = ("from the store" if problem.store is not None
                  else "made earlier by this problem (e.g. the output check)")

@@ -1,0 +1,35 @@
+"""The held-out cases (``benchmarks/holdout.py``): drawn from a seed, every one a valid problem."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+
+from benchmarks.cases import make_problem, truth_vector  # noqa: E402
+from benchmarks.catalog import CASES  # noqa: E402
+from benchmarks.holdout import HOLDOUT, N_CASES, SEED, generate  # noqa: E402
+
+
+def test_the_same_seed_draws_the_same_cases_and_another_seed_others() -> None:
+    again = generate(SEED, N_CASES)
+    assert list(again) == list(HOLDOUT)
+    assert [(c.truth, c.features, c.kernel, c.sigma_a, c.length) for c in again.values()] == \
+        [(c.truth, c.features, c.kernel, c.sigma_a, c.length) for c in HOLDOUT.values()]
+    other = generate(SEED + 1, 3)
+    assert [c.truth for c in other.values()] != [c.truth for c in list(HOLDOUT.values())[:3]]
+
+
+def test_held_out_cases_are_new_problems_of_every_dimension() -> None:
+    assert not set(HOLDOUT) & set(CASES)
+    assert {c.n_physical for c in HOLDOUT.values()} == {2, 3, 4}
+    for case in HOLDOUT.values():
+        problem = make_problem(case)
+        assert np.isfinite(float(problem.log_joint(truth_vector(case, list(problem.names)))))
+        for name, value in case.truth.items():  # truths inside the plausible box
+            low, high = case.priors[name].plausible_bounds
+            assert low < value < high
