@@ -25,6 +25,8 @@ Then the O(n) state-space form (``docs/likelihood.md``):
 2-D fields (the full-scale and Vecchia forms): ``--only-field`` runs ``scripts/bench_likelihood_field.py``
 (error against the dense path over the priors' range; 10^4 .. 10^6 points, one parameter
 vector, one load case, beside the dense path, scikit-learn's exact GP and a numpy reference);
+``--only-lattice`` runs ``scripts/bench_likelihood_lattice.py`` (the exact lattice form of kernel
+``separable_exponential`` on a grid with holes, 10^4 .. 10^6 points, beside the dense path at 10^4);
 ``--only-keops`` runs ``scripts/bench_likelihood_keops.py`` (10^3 .. 10^5 points beside GPyTorch's
 exact Cholesky and its BBMM with KeOps kernels; its KeOps rows are skipped, with the reason,
 without pykeops or with ``TORCHSHM_SMOKE=1``).
@@ -32,7 +34,8 @@ without pykeops or with ``TORCHSHM_SMOKE=1``).
 Usage::
 
     python scripts/bench_likelihood.py [--repeats 20] [--slow-repeats 3] [--seed 0]
-        [--only-dense | --only-scaling | --only-celerite | --only-draws | --only-field | --only-keops]
+        [--only-dense | --only-scaling | --only-celerite | --only-draws | --only-field | --only-lattice
+         | --only-keops]
 """
 
 from __future__ import annotations
@@ -269,6 +272,7 @@ def main() -> None:
     parser.add_argument("--only-celerite", action="store_true", help="only n = 10^5 x 12 beside celerite2")
     parser.add_argument("--only-draws", action="store_true", help="only the O(n) predictive draws")
     parser.add_argument("--only-field", action="store_true", help="only the 2-D fields (full-scale and Vecchia forms)")
+    parser.add_argument("--only-lattice", action="store_true", help="only the lattice form (separable kernel on a grid)")
     parser.add_argument("--only-keops", action="store_true", help="only the 2-D field beside GPyTorch (Cholesky, BBMM + KeOps)")
     parser.add_argument("--one-size", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -277,6 +281,11 @@ def main() -> None:
         import bench_likelihood_field
 
         bench_likelihood_field.main(["--seed", str(args.seed)])
+        return
+    if args.only_lattice:
+        import bench_likelihood_lattice
+
+        bench_likelihood_lattice.main(["--seed", str(args.seed)])
         return
     if args.only_keops or SMOKE:  # the smoke: 144 points, KeOps rows skipped with their reason
         import bench_likelihood_keops

@@ -9,7 +9,7 @@ from scipy.spatial.distance import cdist
 from scipy.stats import multivariate_normal
 
 from torchshm.kernels import get_kernel
-from torchshm.likelihood import marginal
+from torchshm.likelihood import choice, marginal
 from torchshm.likelihood.gaussian import log_likelihood
 
 
@@ -40,7 +40,7 @@ def test_field_is_dense_below_the_vecchia_size_and_fullscale_from_it() -> None:
 
 
 def test_too_large_field_is_one_line_with_size_and_alternatives(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(marginal, "_physical_memory", lambda: 2**30)  # a 1 GiB machine
+    monkeypatch.setattr(choice, "_physical_memory", lambda: 2**30)  # a 1 GiB machine
     with pytest.raises(ValueError) as err:
         marginal.choose_method(get_kernel("matern32"), 10_000, "dense", dim=2)
     text = str(err.value)

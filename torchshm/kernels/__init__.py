@@ -11,6 +11,7 @@ from torchshm.kernels.stationary import (
     Matern52,
     SquaredExponential,
 )
+from torchshm.kernels.separable import SeparableExponential  # after KERNELS: the L1 exponential
 from torchshm.kernels.upscaled import Upscaled  # after KERNELS (Table 6): a kernel of its own form
 
 __all__ = [
@@ -21,6 +22,7 @@ __all__ = [
     "Kernel",
     "Matern32",
     "Matern52",
+    "SeparableExponential",
     "SquaredExponential",
     "Upscaled",
     "get_kernel",

@@ -74,7 +74,8 @@ def log_likelihood(
         sigma_e: standard deviation of the measurement noise [µε], >= 0; a number or a
             tensor broadcastable to `...`.
         method: ``"auto"`` (default), ``"dense"``, ``"state_space"`` (1-D positions),
-            ``"fullscale"`` or ``"vecchia"`` (`n x d` coordinates).
+            ``"fullscale"`` or ``"vecchia"`` (`n x d` coordinates), ``"lattice"`` (kernel
+            ``separable_exponential`` on a regular grid, exact and sparse, on the CPU).
         extra_variance: `... x L x n` variance [µε²] added to the diagonal of each load case's
             covariance, or None: e.g. an emulator's predictive variance of ``eta``, which makes
             the density the exact marginal over a Gaussian error of ``eta``.
@@ -118,7 +119,7 @@ def log_likelihood(
     extra_f = None if extra is None else extra.expand(*batch, *y.shape).reshape(n_batch, *y.shape)
     dim = 1 if x.ndim == 1 else x.shape[1]
     positive = bool((se_f > 0).all()) if isinstance(se_f, Tensor) else se_f > 0
-    form = choose_method(kern, y.shape[1], method, noise_positive=positive, dim=dim)
+    form = choose_method(kern, y.shape[1], method, noise_positive=positive, dim=dim, x=x)
     shared = extra is None and not isinstance(sm_f, Tensor) and sm_f == 0.0
     matrices = 1 if shared else y.shape[0]  # covariances per parameter vector
     per_vector = matrices * y.shape[1] ** 2 * 8 if form == "dense" else y.numel() * 8

@@ -11,7 +11,9 @@ the posterior predictive draws (Eq. 15), from the same covariance, in one of the
 ``"state_space"`` (Markov kernels, exact, O(n), :mod:`~torchshm.likelihood.statespace`),
 ``"vecchia"`` and ``"fullscale"`` (fields of `n x d` coordinates, approximate), all
 differentiable on CPU or CUDA; ``"upscaled"`` (kernel ``upscaled``, exact, sparse, NumPy/SciPy,
-:mod:`~torchshm.likelihood.upscaled`). ``method="auto"`` takes the state space from
+:mod:`~torchshm.likelihood.upscaled`) and ``"lattice"`` (kernel ``separable_exponential`` on a
+regular grid, exact, sparse, differentiable, CPU, :mod:`~torchshm.likelihood.lattice`). ``method="auto"``
+(:func:`~torchshm.likelihood.choice.choose_method`) takes the state space from
 :data:`STATE_SPACE_FROM` points per load case, the full-scale form for fields from
 :data:`VECCHIA_FROM`, and refuses, with one line, a dense covariance that would not fit in memory.
 """
@@ -20,7 +22,6 @@ from __future__ import annotations
 
 import logging
 import math
-import os
 import time
 from dataclasses import dataclass
 
@@ -28,7 +29,15 @@ import torch
 from torch import Tensor
 
 from torchshm.kernels import Kernel
-from torchshm.likelihood import fullscale, fullscale_choice, statespace, upscaled, vecchia
+from torchshm.likelihood import fullscale, lattice, statespace, upscaled, vecchia
+from torchshm.likelihood.choice import (  # the choice of form, and its thresholds, re-exported
+    DENSE_MEMORY_SHARE,
+    FULLSCALE_NEIGHBOURS,
+    FULLSCALE_RANK,
+    STATE_SPACE_FROM,
+    VECCHIA_FROM,
+    choose_method,
+)
 from torchshm.likelihood.cholesky import cholesky_with_jitter
 
 logger = logging.getLogger(__name__)
@@ -36,23 +45,8 @@ logger = logging.getLogger(__name__)
 PROGRESS_EVERY_S = 15.0
 
 LOG_2PI = math.log(2.0 * math.pi)
-#: points per load case from which ``method="auto"`` uses the state-space form (measured)
-STATE_SPACE_FROM = 1000
-#: points per load case of a field (`n x d`, d >= 2) from which ``method="auto"`` uses the
-#: full-scale (low rank + Vecchia) form: below it the exact dense path costs at most a few
-#: seconds per evaluation
-VECCHIA_FROM = 5000
-#: the most neighbours and pivots of the full-scale form (chosen per call up to these,
-#: :mod:`torchshm.likelihood.fullscale_choice`; ``docs/likelihood.md``), capped by memory
-#: (:func:`torchshm.likelihood.fullscale.neighbours_for`, ``rank_for``)
-FULLSCALE_NEIGHBOURS = fullscale_choice.NEIGHBOURS_MAX
-FULLSCALE_RANK = fullscale_choice.RANK_MAX
 #: largest dense covariance batch [bytes] built and factorised at once when sampling
 SAMPLE_CHUNK_BYTES = 2**21
-#: share of the physical memory that dense covariances may take before they are refused
-DENSE_MEMORY_SHARE = 0.5
-#: messages given once per process
-_SAID = {"vecchia": False, "fullscale": False}
 
 
 def covariance(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: Tensor) -> Tensor:
@@ -70,84 +64,6 @@ def covariance(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: 
     return cov
 
 
-def choose_method(
-    kern: Kernel, n: int, method: str = "auto", noise_positive: bool = True, dim: int = 1
-) -> str:
-    """``"diagonal"``, ``"dense"``, ``"state_space"``, ``"fullscale"`` or ``"vecchia"`` for `n`
-    points per load case.
-
-    ``"auto"`` takes the state space only when the diagonal of Eq. (21) is known to be
-    positive (``noise_positive``, i.e. ``sigma_e > 0``), which the state-space form needs at
-    repeated positions, and only for 1-D positions (``dim == 1``); `n x d` coordinates
-    (``dim = d > 1``) are dense below :data:`VECCHIA_FROM` points and full-scale (low rank +
-    Vecchia, :mod:`~torchshm.likelihood.fullscale`) from there; ``"vecchia"`` (plain nearest
-    neighbours, fast and far less accurate) only when asked for.
-
-    Raises:
-        ValueError: for an unknown method, ``"state_space"`` with a kernel that has none,
-            ``"vecchia"`` or ``"fullscale"`` for 1-D positions, or a dense covariance larger than
-            :data:`DENSE_MEMORY_SHARE` of the physical memory.
-    """
-    own = getattr(kern, "form", None)  # a kernel with a sparse density of its own (upscaled)
-    if own is not None and method in ("auto", own):
-        if not noise_positive or dim != 2:
-            raise ValueError(f"kernel {kern.name!r} needs n x 2 coordinates and sigma_e > 0")
-        return own
-    if method not in ("auto", "dense", "state_space", "diagonal", "vecchia", "fullscale"):
-        raise ValueError(
-            f"method must be 'auto', 'dense', 'state_space', 'fullscale' or 'vecchia', got {method!r}"
-        )
-    if kern.is_diagonal:
-        return "diagonal"
-    if method == "diagonal":
-        raise ValueError(f"kernel {kern.name!r} is not diagonal; use method='auto' or 'dense'")
-    markov = statespace.is_markov(kern) and dim == 1
-    if method == "state_space" and not markov:
-        what = f"kernel {kern.name!r}" if dim == 1 else f"{dim}-D coordinates"
-        raise ValueError(f"{what}: no state-space form; use method='dense'")
-    if method == "state_space" or (method == "auto" and markov and noise_positive and n >= STATE_SPACE_FROM):
-        return "state_space"
-    if method in ("vecchia", "fullscale") and dim == 1:
-        raise ValueError(f"method={method!r} is for n x d coordinates (d >= 2); positions along a "
-                         "line use 'state_space' or 'dense'")
-    if method == "vecchia":
-        return method
-    if method == "fullscale" or (method == "auto" and dim > 1 and n >= VECCHIA_FROM):
-        if method == "auto" and not _SAID["fullscale"]:
-            _SAID["fullscale"] = True
-            rank = fullscale.rank_for(n, FULLSCALE_RANK)
-            logger.warning(
-                "%d points per load case of a %d-D field: the likelihood is the full-scale "
-                "approximation (low rank of at most %d pivots + Vecchia with %d to %d neighbours, chosen "
-                "per call from the kernel's length and the noise), not the exact density (its error: %s); "
-                "see docs/likelihood.md",
-                n, dim, rank, fullscale.neighbours_for(n, fullscale_choice.NEIGHBOURS_RESOLVED),
-                fullscale.neighbours_for(n, FULLSCALE_NEIGHBOURS), fullscale.error_note(n, rank),
-            )
-        return "fullscale"
-    need, have = 2 * 8 * n * n, _physical_memory()
-    if need > DENSE_MEMORY_SHARE * have:
-        instead = (
-            "use 'exponential', 'matern32' or 'matern52' with sigma_e > 0 (exact O(n) state space) "
-            "or fewer points (a coarser pitch)" if dim == 1 else
-            f"{dim}-D coordinates: use method='fullscale' (low rank + nearest neighbours) or fewer "
-            "points (a coarser grid)"
-        )
-        raise ValueError(
-            f"{n} points per load case: a dense covariance needs {need / 2**30:.1f} GiB of "
-            f"{have / 2**30:.1f} GiB for kernel {kern.name!r}; {instead}"
-        )
-    return "dense"
-
-
-def _physical_memory() -> int:
-    """Physical memory of this machine [bytes]."""
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
-        return 16 * 2**30
-
-
 @dataclass
 class Eq21:
     """The Gaussian of Eq. (21) for `B` parameter vectors and `L` load cases.
@@ -159,8 +75,8 @@ class Eq21:
         sigma_a: `B` discrepancy scales [µε]; length: `B` correlation lengths [m].
         sigma_m: multiplicative model error (dimensionless); sigma_e: noise sd [µε]; each
             one number, or a `B` tensor (one per parameter vector, when they are inferred).
-        method: ``"auto"``, ``"dense"``, ``"state_space"``, ``"fullscale"`` or ``"vecchia"``
-            (see :func:`choose_method`).
+        method: ``"auto"``, ``"dense"``, ``"state_space"``, ``"fullscale"``, ``"vecchia"`` or
+            ``"lattice"`` (see :func:`choose_method`).
         extra: `B x L x n` variance [µε²] added to the diagonal, or None: e.g. an emulator's
             predictive variance of ``eta`` (the exact marginal over a Gaussian error of it).
     """
@@ -176,7 +92,7 @@ class Eq21:
     extra: Tensor | None = None
 
     def __post_init__(self) -> None:
-        self.method = choose_method(self.kern, self.x.shape[0], self.method, dim=_dim(self.x))
+        self.method = choose_method(self.kern, self.x.shape[0], self.method, dim=_dim(self.x), x=self.x)
 
     def _noise(self) -> Tensor:
         """The diagonal ``sigma_e² + sigma_m² eta² (+ extra)`` `B x L x n` [µε²]."""
@@ -207,8 +123,9 @@ class Eq21:
             else:
                 x = self.x
             return statespace.log_density(resid, noise, x, self.kern, self.sigma_a, self.length)
-        if self.method == "upscaled":
-            return upscaled.log_density(resid, noise, self.x, self.sigma_a, self.length)
+        if self.method in ("upscaled", "lattice"):
+            form = upscaled if self.method == "upscaled" else lattice
+            return form.log_density(resid, noise, self.x, self.sigma_a, self.length)
         if self.method == "vecchia":
             return vecchia.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length)
         if self.method == "fullscale":
@@ -248,8 +165,9 @@ class Eq21:
                 return out
             out[..., order] += f + (sigma_e * e)[..., order]
             return out
-        if self.method == "upscaled":
-            f = upscaled.sample(x, self.sigma_a, self.length, eta.shape[1], generator)
+        if self.method in ("upscaled", "lattice"):
+            form = upscaled if self.method == "upscaled" else lattice
+            f = form.sample(x, self.sigma_a, self.length, eta.shape[1], generator)
             return out + f + sigma_e * torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
         z2 = torch.randn(eta.shape, generator=generator, dtype=torch.float64).to(eta.device)
         if self.method in ("vecchia", "fullscale"):  # draws: the Vecchia factor (docs/likelihood.md)

@@ -9,8 +9,10 @@ by :meth:`torchshm.likelihood.marginal.Eq21.sample`, the distribution the likeli
 ``eta_l + sigma_m * eta_l * z1`` plus the discrepancy and noise, drawn through
 ``chol(K + sigma_e**2 I)`` (dense) or, for the Markov kernels at
 :data:`~torchshm.likelihood.marginal.STATE_SPACE_FROM` points and more, through the kernel's
-state-space form in O(n). The discrepancy is drawn per load case, as the likelihood treats load
-cases as independent (block-diagonal covariance).
+state-space form in O(n) (kernel ``separable_exponential`` on a regular grid: the AR(1)
+recursion along each axis, :func:`torchshm.likelihood.lattice.sample`). The discrepancy is
+drawn per load case, as the likelihood treats load cases as independent (block-diagonal
+covariance).
 """
 
 from __future__ import annotations
@@ -70,7 +72,8 @@ def predictive_draws(
     eta, x, sigma_a = as_float64(eta), as_float64(x), as_float64(sigma_a)
     ell = as_float64(0.0 if length is None or not kern.has_length else length).expand(sigma_a.shape)
     positive = bool(torch.all(torch.as_tensor(sigma_e) > 0))
-    form = method if method != "auto" or positive else "dense"
+    # the lattice draws (AR(1) recursions on the grid) need no noise; the state space does
+    form = method if method != "auto" or positive or getattr(kern, "form", None) == "lattice" else "dense"
     return Eq21(eta, x, kern, sigma_a, ell, sigma_m, sigma_e, form).sample(generator)
 
 

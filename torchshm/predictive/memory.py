@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Iterable
 import numpy as np
 
 from torchshm.kernels import Kernel, get_kernel
-from torchshm.likelihood.marginal import DENSE_MEMORY_SHARE, _physical_memory
+from torchshm.likelihood.choice import DENSE_MEMORY_SHARE, _physical_memory
 from torchshm.predictive.chunks import chunk_rows
 from torchshm.predictive.draws import SUMMARY_CHUNK_BYTES
 from torchshm.predictive.phases import line_method
