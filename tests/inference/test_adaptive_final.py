@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from torchshm.inference.adaptive.final import beyond_rows, beyond_runs, extrapolation_run
+from torchshm.inference.adaptive.final import beyond_rows, beyond_runs, edge_rows, extrapolation_run
 
 
 def test_draws_beyond_the_runs_agree_with_the_shares_and_the_run_goes_farthest() -> None:
@@ -26,3 +26,21 @@ def test_draws_beyond_the_runs_agree_with_the_shares_and_the_run_goes_farthest()
     draws[0] = [59.0, 10.9, 1.0]
     beyond = beyond_rows(draws, [0, 1], runs, box)
     assert np.allclose(extrapolation_run(draws, beyond, [0, 1], runs, box), draws[:1])
+
+
+def test_draws_at_the_edge_of_the_runs_count_and_the_run_goes_past_it() -> None:
+    # a plateau cut where the runs end: the draws pile up within 5 % of the range below the
+    # last run (12.3 of the bound 13), none beyond it
+    rng = np.random.default_rng(4)
+    box = np.array([[15.0, 60.0], [5.0, 13.0]])
+    runs = np.column_stack([rng.uniform(21.0, 49.0, 20), np.r_[rng.uniform(6.1, 12.0, 19), 12.3]])
+    draws = np.column_stack([rng.normal(33.6, 0.3, 600), np.r_[rng.uniform(10.8, 11.9, 500),
+                                                                rng.uniform(11.95, 12.3, 100)]])
+    assert not beyond_rows(draws, [0, 1], runs, box).any()
+    edge = edge_rows(draws, [0, 1], runs, box)
+    assert np.array_equal(edge, draws[:, 1] > 12.3 - 0.05 * 8.0)
+    run = extrapolation_run(draws, edge, [0, 1], runs, box)
+    assert run[0, 1] == 12.3 + 0.05 * 8.0  # one margin past the last run
+    # runs that reach the bound leave nothing to extend on that side
+    runs[-1, 1] = 12.9
+    assert not edge_rows(draws, [0, 1], runs, box).any()

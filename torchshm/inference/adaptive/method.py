@@ -39,7 +39,7 @@ from torchshm.inference.adaptive.acquisition import choose_batch, design
 from torchshm.inference.adaptive.explore import (beyond_posterior, explore, explore_calibration,
                                                   exploration_batch, with_modes)
 from torchshm.inference.adaptive.field import FieldEmulator, model_transform
-from torchshm.inference.adaptive.final import (EXTRAPOLATION_SHARE, beyond_rows,
+from torchshm.inference.adaptive.final import (EXTRAPOLATION_SHARE, beyond_rows, edge_rows,
                                                 extrapolation_run, finish)
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, physical_columns
 from torchshm.inference.adaptive.runs import RunSet, run_batch
@@ -194,7 +194,13 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             checked = check is not None and check.passed(check_tol)
             settled = calm >= patience and float(sd.mean()) < sd_tol and checked
             beyond = beyond_rows(draws, columns[0], runs.theta_p[:, columns[1]], hard)
-            extrapolating = bool(beyond.mean() >= EXTRAPOLATION_SHARE)
+            edge = edge_rows(draws, columns[0], runs.theta_p[:, columns[1]], hard)
+            extrapolating = bool(edge.mean() >= EXTRAPOLATION_SHARE)  # the rule does not hold
+            # a run past the runs: for draws beyond them at once, for draws at their edge once the
+            # emulator passed its check at the posterior (a crude early posterior is broad and
+            # lies at the edge of some range in most of its draws)
+            extend = (beyond if beyond.mean() >= EXTRAPOLATION_SHARE
+                      else edge if extrapolating and checked else None)
             converged = settled and scan.n_unresolved == 0 and not extrapolating
             row = {"round": float(r), "n_runs": float(len(batch)), "n_new_runs": float(new),
                    "n_model_evaluations": float(runs.n_new), "n_emulator_runs":
@@ -204,6 +210,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                    "check_loglik_error": check.max_error if check is not None else np.nan,
                    "n_unresolved": float(scan.n_unresolved), "explore_margin": scan.margin,
                    "explore_calibration": far_calibration, "beyond_runs": float(beyond.mean()),
+                   "edge_runs": float(edge.mean()),
                    "wall_time_s": time.perf_counter() - t_round,
                    "cpu_time_s": time.process_time() - c_round}
             row.update(marginal_scalars(names, samples))
@@ -211,17 +218,18 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             reused = runs.theta_p.shape[0] - n_before - new
             logger.info("round %d: %d runs (%d new, %d from the store; %d new in all), TV %.3f, "
                         "emulator log-likelihood sd %.3f nats, last batch off by %.3g nats, "
-                        "%d unresolved points of the box, %.0f%% of the draws beyond the runs", r,
-                        len(batch), new, max(0, reused), runs.n_new, tv, sd.mean(),
-                        row["check_loglik_error"], scan.n_unresolved, 100 * beyond.mean())
+                        "%d unresolved points of the box, %.0f%% of the draws beyond the runs (%.0f%% "
+                        "at their edge or beyond)", r, len(batch), new, max(0, reused), runs.n_new, tv,
+                        sd.mean(), row["check_loglik_error"], scan.n_unresolved, 100 * beyond.mean(),
+                        100 * edge.mean())
             rounds.append({**row, "batch": np.asarray(batch).tolist()})
             left = budget - runs.n_new
             if converged or left <= 0:
                 break
             want = min(batch_size, left)
             # one run past the runs' range, where the emulator extends what it saw
-            ext = (extrapolation_run(draws, beyond, columns[0], runs.theta_p[:, columns[1]], hard)
-                   if extrapolating else draws[:0])
+            ext = (extrapolation_run(draws, extend, columns[0], runs.theta_p[:, columns[1]], hard)
+                   if extend is not None else draws[:0])
             want -= ext.shape[0]
             # exploration: one run, all but one once settled
             far = exploration_batch(scan, emulator, physical_columns(problem, scan.rows),
