@@ -30,12 +30,14 @@ REGISTRY: dict[str, type[Kernel]] = {}
 MIN_LENGTH = 1e-9
 
 
-def distances(x1: Tensor, x2: Tensor) -> Tensor:
+def distances(x1: Tensor, x2: Tensor, l1: bool = False) -> Tensor:
     """Distances `n x m` [m] between positions `x1` and `x2`.
 
     Args:
         x1: `n` positions along a line, or `n x d` coordinates [m].
         x2: `m` positions, or `m x d` coordinates [m] (the same form as ``x1``).
+        l1: coordinates' L1 (Manhattan) distance ``sum_k |x1_ik - x2_jk|`` instead of the
+            Euclidean one (kernels of one correlation per direction).
 
     Returns:
         ``|x1_i - x2_j|`` for positions, the Euclidean distance ``||x1_i - x2_j||`` for
@@ -55,7 +57,10 @@ def distances(x1: Tensor, x2: Tensor) -> Tensor:
         )
     square = x1.new_zeros(x1.shape[0], x2.shape[0])
     for k in range(x1.shape[1]):
-        square = square + (x1[:, k, None] - x2[None, :, k]).square()
+        step = x1[:, k, None] - x2[None, :, k]
+        square = square + (step.abs() if l1 else step.square())
+    if l1:
+        return square
     positive = square > 0
     return torch.where(positive, torch.where(positive, square, 1.0).sqrt(), 0.0)
 

@@ -23,27 +23,18 @@ from __future__ import annotations
 
 from torch import Tensor
 
-from torchshm.kernels.base import as_float64
+from torchshm.kernels.base import as_float64, distances
 from torchshm.kernels.stationary import Exponential
 
 
 def manhattan(x1: Tensor, x2: Tensor) -> Tensor:
-    """L1 distances `n x m` [m] between `n` (or `n x d`) and `m` (or `m x d`) points.
+    """L1 distances `n x m` [m] between `n` (or `n x d`) and `m` (or `m x d`) points
+    (:func:`~torchshm.kernels.base.distances` with ``l1=True``).
 
     Raises:
         ValueError: if ``x1`` and ``x2`` are not both `(n,)` or both `(n, d)` with the same `d`.
     """
-    if x1.ndim == 1 and x2.ndim == 1:
-        return (x1.unsqueeze(-1) - x2.unsqueeze(-2)).abs()
-    if x1.ndim != 2 or x2.ndim != 2 or x1.shape[1] != x2.shape[1]:
-        raise ValueError(
-            f"kernel positions must be (n,) and (m,) or (n, d) and (m, d) coordinates, "
-            f"got x1 {tuple(x1.shape)} and x2 {tuple(x2.shape)}"
-        )
-    total = x1.new_zeros(x1.shape[0], x2.shape[0])
-    for k in range(x1.shape[1]):
-        total = total + (x1[:, k, None] - x2[None, :, k]).abs()
-    return total
+    return distances(x1, x2, l1=True)
 
 
 class SeparableExponential(Exponential):
