@@ -68,10 +68,13 @@ def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length
     return torch.as_tensor(out, dtype=resid.dtype, device=resid.device)
 
 
-def sample(x: Tensor, sigma_a: Tensor, length: Tensor, n_loads: int, generator: torch.Generator) -> Tensor:
+def sample(x: Tensor, sigma_a: Tensor, length: Tensor, n_loads: int, generator: torch.Generator,
+           ops: dict[float, sparse.csr_matrix] | None = None) -> Tensor:
     """Draws `B x L x n` [µε] of ``sigma_a U z`` (``z``: standard normals of the elements from
-    ``generator``, `L x N` per parameter vector in turn)."""
-    xs, out, ops = x.detach().cpu().numpy(), [], {}
+    ``generator``, `L x N` per parameter vector in turn); ``ops``: the operators by element
+    side, filled and reused (a caller drawing in chunks keeps them from chunk to chunk)."""
+    xs, out = x.detach().cpu().numpy(), []
+    ops = {} if ops is None else ops
     for b in range(sigma_a.shape[0]):
         if float(length[b]) not in ops:
             ops[float(length[b])] = operator(xs, float(length[b]))

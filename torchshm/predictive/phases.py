@@ -23,8 +23,7 @@ import torch
 from torch import Tensor
 
 from torchshm.kernels import Kernel, get_kernel
-from torchshm.kernels.upscaled import operator
-from torchshm.likelihood import statespace, vecchia
+from torchshm.likelihood import statespace, upscaled, vecchia
 from torchshm.likelihood.cholesky import cholesky_with_jitter
 from torchshm.likelihood.marginal import SAMPLE_CHUNK_BYTES, choose_method, covariance
 from torchshm.likelihood.statespace import is_markov
@@ -98,9 +97,10 @@ def _draw_line(out: Tensor, points: slice | Tensor, x: Tensor, kern: Kernel, sig
             put(rows, values)
         return
     if method == "upscaled":
-        xs, ops = x.detach().cpu().numpy(), {}
+        ops: dict = {}  # the operators by element side, kept from chunk to chunk
         for rows in chunks:
-            put(rows, get(rows) + _elements(xs, sigma_a[rows], ell[rows], out.shape[1], ops, generator))
+            f = upscaled.sample(x, sigma_a[rows], ell[rows], out.shape[1], generator, ops)
+            put(rows, get(rows) + f.to(get(rows).device))
         for rows in chunks:
             values = get(rows)
             put(rows, values + _rows(sigma_e, rows, values) * normals(rows))
@@ -134,20 +134,6 @@ def _second(method: str, x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tenso
             raise ValueError("predictive draws: a discrepancy covariance is not positive definite")
         f[part] = torch.matmul(chol[:, 0], z2[part].mT).mT
     return f
-
-
-def _elements(xs: object, sigma_a: Tensor, length: Tensor, n_loads: int, ops: dict,
-              generator: torch.Generator) -> Tensor:
-    """``sigma_a U z`` `rows x L x n` of the upscaled form (as
-    :func:`torchshm.likelihood.upscaled.sample`, its operators kept from chunk to chunk)."""
-    out = []
-    for b in range(sigma_a.shape[0]):
-        if float(length[b]) not in ops:
-            ops[float(length[b])] = operator(xs, float(length[b]))
-        w = ops[float(length[b])]
-        z = torch.randn(n_loads, w.shape[1], generator=generator, dtype=torch.float64).numpy()
-        out.append(torch.as_tensor(float(sigma_a[b]) * (w @ z.T).T))
-    return torch.stack(out)
 
 
 def _rows(value: float | Tensor, rows: slice, like: Tensor) -> Tensor:
