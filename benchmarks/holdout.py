@@ -20,6 +20,7 @@ from functools import partial
 import numpy as np
 
 from benchmarks.cases import Case, G, U
+from benchmarks.catalog import CASES
 from benchmarks.models import Beam, BeamSpec, Role
 
 #: seed of :data:`HOLDOUT` (drawn once; a new seed gives a new held-out set)
@@ -106,5 +107,7 @@ def generate(seed: int = SEED, n: int = N_CASES) -> dict[str, Case]:
 
 #: the held-out cases the benchmarks report (name -> :class:`Case`)
 HOLDOUT: dict[str, Case] = generate()
+#: every case a benchmark row or reference may name: the suite's and the held-out ones
+KNOWN: dict[str, Case] = {**CASES, **HOLDOUT}
 
-__all__ = ["HOLDOUT", "N_CASES", "SEED", "generate"]
+__all__ = ["HOLDOUT", "KNOWN", "N_CASES", "SEED", "generate"]

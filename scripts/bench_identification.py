@@ -41,7 +41,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.cases import case_hash, make_problem  # noqa: E402
 from benchmarks.catalog import CASES  # noqa: E402
-from benchmarks.holdout import HOLDOUT  # noqa: E402
+from benchmarks.holdout import HOLDOUT, KNOWN  # noqa: E402
 from benchmarks.methods import TimedModel, run_method  # noqa: E402
 
 REFS = ROOT / "benchmarks" / "references"
@@ -49,8 +49,6 @@ DOC = ROOT / "docs" / "benchmarks.md"
 BEGIN, END = "<!-- suite:begin -->", "<!-- suite:end -->"
 #: the held-out cases' table (``--holdout``) has markers and a section of its own
 HOLDOUT_MARKS = ("<!-- holdout:begin -->", "<!-- holdout:end -->")
-#: every case a row may name: the suite's and the held-out ones
-KNOWN = {**CASES, **HOLDOUT}
 METHODS = ("emulator", "vbmc", "gpry")
 #: the cases GPry runs on by default: the 2- and 4-parameter ones (see docs/benchmarks.md)
 GPRY_CASES = [name for name, case in CASES.items() if case.n_physical in (2, 4)]

@@ -33,12 +33,10 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.cases import Case, case_hash, make_problem, truth_vector  # noqa: E402
 from benchmarks.catalog import CASES  # noqa: E402
-from benchmarks.holdout import HOLDOUT  # noqa: E402
+from benchmarks.holdout import HOLDOUT, KNOWN  # noqa: E402
 from benchmarks.reference import direct_log_joint, find_modes, importance, run_chain  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "references"
-#: every case a reference may be made for: the suite's and the held-out ones
-KNOWN = {**CASES, **HOLDOUT}
 QUANTILES = (0.025, 0.16, 0.5, 0.84, 0.975)
 SMOKE = os.environ.get("TORCHSHM_SMOKE") == "1"  # tiny sizes: a check that it runs (docs test), no figures
 

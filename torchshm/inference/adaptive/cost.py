@@ -8,9 +8,9 @@ hundred readings a vector costs a fraction of a millisecond in a batch; on a cam
 a sparse density per vector (kernel ``upscaled``: one sparse LU per vector and load case, about
 0.15 s at 1.6e5 points) a round costs half an hour or more, longer than the model runs it saves.
 So before the design's runs the likelihood is timed once at rows drawn from the prior, with the
-data standing in for the emulator's mean and a small variance for its own (the cost does
-not depend on the values), and a round
-whose estimate exceeds :data:`WARN_ROUND_S` is announced with its figures and the alternative.
+data standing in for the emulator's mean and a small variance for its own (the cost does not
+depend on the values), and a round whose estimate exceeds :data:`WARN_ROUND_S` is announced
+with its figures and the alternative.
 """
 
 from __future__ import annotations

@@ -97,6 +97,24 @@ def beyond_runs(samples: np.ndarray, names: list[str], physical: list[str], thet
     return {"beyond_runs": shares, "runs_range": ranges}
 
 
+def _past(samples: np.ndarray, columns: list[int], theta_p: np.ndarray, box: np.ndarray,
+          shift: float, short_only: bool) -> np.ndarray:
+    """`S` whether each draw lies past the runs' last value moved outwards by ``shift`` of its
+    parameter's search range (inwards when negative), in some physical parameter; with
+    ``short_only`` only on the sides where the runs stop short of the search ``box`` by more
+    than ``|shift|`` of the range."""
+    out = np.zeros(samples.shape[0], dtype=bool)
+    for j, k in enumerate(columns):
+        pad = abs(shift) * float(box[k, 1] - box[k, 0])
+        x, low, high = samples[:, k], theta_p[:, j].min(), theta_p[:, j].max()
+        step = np.sign(shift) * pad
+        if not short_only or high < box[k, 1] - pad:
+            out |= x > high + step
+        if not short_only or low > box[k, 0] + pad:
+            out |= x < low - step
+    return out
+
+
 def beyond_rows(samples: np.ndarray, columns: list[int], theta_p: np.ndarray, box: np.ndarray,
                 margin: float = BEYOND_MARGIN) -> np.ndarray:
     """`S` whether each draw lies beyond the runs' range in some physical parameter.
@@ -106,20 +124,14 @@ def beyond_rows(samples: np.ndarray, columns: list[int], theta_p: np.ndarray, bo
             ``theta_p``, `N x P` runs) sit in a draw; box: `D x 2` search bounds; a draw is
             beyond when it lies more than ``margin`` of its parameter's range outside the runs.
     """
-    out = np.zeros(samples.shape[0], dtype=bool)
-    for j, k in enumerate(columns):
-        pad = margin * float(box[k, 1] - box[k, 0])
-        x = samples[:, k]
-        out |= (x < theta_p[:, j].min() - pad) | (x > theta_p[:, j].max() + pad)
-    return out
+    return _past(samples, columns, theta_p, box, margin, short_only=False)
 
 
 def edge_rows(samples: np.ndarray, columns: list[int], theta_p: np.ndarray, box: np.ndarray,
               margin: float = BEYOND_MARGIN) -> np.ndarray:
     """`S` whether each draw lies at the edge of the runs' range or past it, on a side where
     the runs stop short of the search ``box`` `D x 2`: within ``margin`` of the parameter's
-    range inside the runs' last value, or beyond it (``samples`` `S x D`, ``columns`` where the
-    `P` physical parameters of ``theta_p`` `N x P` sit).
+    range inside the runs' last value, or beyond it (arguments as :func:`beyond_rows`).
 
     Past the last run the emulator extends what it saw, and a plateau that goes on (a spring
     stiff enough to act as a clamp, up to its prior bound) is cut where the runs end: the
@@ -128,15 +140,7 @@ def edge_rows(samples: np.ndarray, columns: list[int], theta_p: np.ndarray, box:
     bound 13, 12 % of the draws lay within 0.4 of that edge, and the emulator's sd of it was
     0.78 of the reference's (``docs/inference.md`` step 7).
     """
-    out = np.zeros(samples.shape[0], dtype=bool)
-    for j, k in enumerate(columns):
-        pad = margin * float(box[k, 1] - box[k, 0])
-        x, low, high = samples[:, k], theta_p[:, j].min(), theta_p[:, j].max()
-        if high < box[k, 1] - pad:
-            out |= x > high - pad
-        if low > box[k, 0] + pad:
-            out |= x < low + pad
-    return out
+    return _past(samples, columns, theta_p, box, -margin, short_only=True)
 
 
 def extrapolation_run(samples: np.ndarray, edge: np.ndarray, columns: list[int],
