@@ -74,6 +74,8 @@ def _view(x: torch.Tensor, lines: int) -> PredictionView:
     ("matern32", torch.linspace(0.0, 30.0, 140), 2, 0.05),   # two lines of 70 points: state space
     ("squared_exponential", torch.linspace(0.0, 5.0, 30), 1, torch.linspace(0.0, 0.1, 45)),  # dense
     ("matern52", torch.cartesian_prod(torch.linspace(0, 1, 6), torch.linspace(0, 1, 5)), 1, 0.02),  # field
+    ("separable_exponential", torch.cartesian_prod(torch.linspace(0, 1, 6), torch.linspace(0, 1, 5)), 1,
+     0.02),  # a grid: the lattice form's AR(1) draws
 ])
 def test_draw_lines_in_chunks_equal_line_draws(kernel: str, x: torch.Tensor, lines: int,
                                                sigma_m: float | torch.Tensor) -> None:

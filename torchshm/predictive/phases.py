@@ -10,7 +10,8 @@ every chunk before the next phase starts:
 1. ``eta + sigma_m eta z1`` (`N x L x n` normals);
 2. the discrepancy and noise: ``chol(K + sigma_e² I) z2`` (dense), ``sd z2`` (diagonal), the
    Vecchia factor's solve of ``z2`` (``"vecchia"``, ``"fullscale"``), or the element values
-   ``sigma_a U z`` (``"upscaled"``, `L x N_el` normals per vector in turn) followed by the
+   ``sigma_a U z`` (``"upscaled"``, `L x N_el` normals per vector in turn) or the grid's AR(1)
+   recursions (``"lattice"``, `L x Nx x Ny` normals per vector in turn), either followed by the
    noise ``sigma_e e``; the state space's process noise interleaves the vectors, so it is drawn
    for all of them at once (one `N x L x n` transient per line), then ``sigma_e e`` by chunks.
 """
@@ -23,7 +24,7 @@ import torch
 from torch import Tensor
 
 from torchshm.kernels import Kernel, get_kernel
-from torchshm.likelihood import statespace, upscaled, vecchia
+from torchshm.likelihood import lattice, statespace, upscaled, vecchia
 from torchshm.likelihood.cholesky import cholesky_with_jitter
 from torchshm.likelihood.marginal import SAMPLE_CHUNK_BYTES, choose_method, covariance
 from torchshm.likelihood.statespace import is_markov
@@ -38,8 +39,9 @@ def line_method(kern: Kernel, x: Tensor, sigma_e: float, noise_positive: bool) -
     and :func:`~torchshm.predictive.draws.predictive_draws` choose it)."""
     markov = x.ndim == 1 and is_markov(kern) and sigma_e > 0
     form = "state_space" if markov and x.shape[0] >= STATE_SPACE_FROM else "auto"
-    form = form if form != "auto" or noise_positive else "dense"
-    return choose_method(kern, x.shape[0], form, dim=1 if x.ndim == 1 else int(x.shape[-1]))
+    # the lattice draws (AR(1) recursions on the grid) need no noise, as in predictive_draws
+    form = form if form != "auto" or noise_positive or getattr(kern, "form", None) == "lattice" else "dense"
+    return choose_method(kern, x.shape[0], form, dim=1 if x.ndim == 1 else int(x.shape[-1]), x=x)
 
 
 def draw_lines(out: Tensor, view: PredictionView, kernel: str | Kernel, sigma_a: Tensor,
@@ -96,10 +98,12 @@ def _draw_line(out: Tensor, points: slice | Tensor, x: Tensor, kern: Kernel, sig
                 values[..., order] += f[rows] + (_rows(sigma_e, rows, values) * e)[..., order]
             put(rows, values)
         return
-    if method == "upscaled":
-        ops: dict = {}  # the operators by element side, kept from chunk to chunk
+    if method in ("upscaled", "lattice"):  # element values or grid recursions, vector by vector
+        ops: dict = {}  # the upscaled operators by element side, kept from chunk to chunk
         for rows in chunks:
-            f = upscaled.sample(x, sigma_a[rows], ell[rows], out.shape[1], generator, ops)
+            f = (upscaled.sample(x, sigma_a[rows], ell[rows], out.shape[1], generator, ops)
+                 if method == "upscaled" else
+                 lattice.sample(x, sigma_a[rows], ell[rows], out.shape[1], generator))
             put(rows, get(rows) + f.to(get(rows).device))
         for rows in chunks:
             values = get(rows)
