@@ -62,8 +62,10 @@ def weighted_moments(samples: np.ndarray, weights: np.ndarray | None = None) -> 
     return mean, np.sqrt(w @ np.square(samples - mean))
 
 
-def run_torchshm(problem: Any, method: str, quick: bool, seed: int) -> dict[str, Any]:
-    """One ``torchshm.identify`` run; moments, evidence, convergence and rounds."""
+def run_torchshm(problem: Any, method: str, quick: bool, seed: int,
+                 extra: dict[str, Any] | None = None) -> dict[str, Any]:
+    """One ``torchshm.identify`` run (``extra``: more keyword options); moments, evidence,
+    convergence and rounds."""
     options: dict[str, Any] = {}
     if method == "emulator" and quick:
         options = {"max_model_evaluations": 10, "n_steps": 60, "final_steps": 60, "n_evidence": 500}
@@ -73,11 +75,12 @@ def run_torchshm(problem: Any, method: str, quick: bool, seed: int) -> dict[str,
         options = {"n_walkers": 20, "n_steps": 60 if quick else 1000}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        post = torchshm.identify(problem, method=method, seed=seed, **options)
+        post = torchshm.identify(problem, method=method, seed=seed, **{**options, **(extra or {})})
     mean, sd = weighted_moments(np.asarray(post.samples))
     out = {"mean": mean, "sd": sd, "log_z": post.log_evidence, "converged": bool(post.converged)}
     if method == "emulator":
         out["rounds"] = int(sum(math.ceil(r["n_new_runs"] / WORKERS) for r in post.diagnostics["rounds"]))
+        out["evidence_ess"] = float(post.diagnostics["evidence_ess"])
     return out
 
 
@@ -141,12 +144,15 @@ def run_gpry(problem: Any, quick: bool, seed: int) -> dict[str, Any]:
             "rounds": int(sum(math.ceil(n / WORKERS) for n in per_iteration.values()))}
 
 
-def run_method(problem: Any, method: str, quick: bool = False, seed: int = 0) -> dict[str, Any]:
-    """Run ``method`` on ``problem`` (built on a :class:`TimedModel`); a failure is a row too."""
+def run_method(problem: Any, method: str, quick: bool = False, seed: int = 0,
+               options: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Run ``method`` on ``problem`` (built on a :class:`TimedModel`; ``options``: more keyword
+    options of a torchshm method); a failure is a row too."""
     timed: TimedModel = problem.model
     t0 = time.process_time()
     try:
-        out = run_gpry(problem, quick, seed) if method == "gpry" else run_torchshm(problem, method, quick, seed)
+        out = run_gpry(problem, quick, seed) if method == "gpry" else run_torchshm(problem, method, quick, seed,
+                                                                                   options)
         out["error"] = ""
     except Exception as exc:  # noqa: BLE001 (the table records every method's failure)
         out = {"error": f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"[:160],

@@ -88,17 +88,18 @@ def score(row: dict, ref: dict) -> dict:
     return out
 
 
-def run_task(task: tuple[str, str, bool, int]) -> dict:
-    """One row: ``method`` on case ``name`` (``quick``, ``seed``), on one torch thread."""
+def run_task(task: tuple[str, str, bool, int, dict]) -> dict:
+    """One row: ``method`` on case ``name`` (``quick``, ``seed``, the emulator's ``options``),
+    on one torch thread."""
     torch.set_num_threads(1)
-    name, method, quick, seed = task
+    name, method, quick, seed, options = task
     case = KNOWN[name]
     path = REFS / f"{name}.json"
     ref = json.loads(path.read_text()) if path.exists() else None
     stale = ref is not None and ref["case_hash"] != case_hash(case)
     problem = make_problem(case, model=TimedModel(case.model()))
     t0 = time.perf_counter()
-    row = run_method(problem, method, quick, seed)
+    row = run_method(problem, method, quick, seed, options if method == "emulator" else None)
     row["wall_s"] = time.perf_counter() - t0
     row["sim_wall_h"] = row["rounds"] * MODEL_MINUTES / 60 + row["own_cpu_s"] / 3600
     row.update(case=name, method=method, P=case.n_physical, D=len(problem.names), case_hash=case_hash(case),
@@ -112,7 +113,7 @@ def run_task(task: tuple[str, str, bool, int]) -> dict:
     return row
 
 
-def run_all(tasks: list[tuple[str, str, bool, int]], jobs: int, save: Callable[[list[dict]], None]) -> list[dict]:
+def run_all(tasks: list[tuple[str, str, bool, int, dict]], jobs: int, save: Callable[[list[dict]], None]) -> list[dict]:
     """Rows of every task, ``jobs`` at a time, each in a fresh process (1 torch thread, so that
     CPU times stay comparable); ``save`` gets the rows after every task."""
     rows: list[dict] = []
@@ -233,6 +234,8 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="JSON file of all rows, rewritten after every run")
     parser.add_argument("--no-docs", action="store_true", help="do not write docs/benchmarks.md")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--emulator-options", type=json.loads, default={}, metavar="JSON",
+                        help='keyword options of method="emulator", e.g. \'{"tv_tol": 0.1}\' (default: none)')
     parser.add_argument("--rescore", type=Path, nargs="+", help="score the rows of earlier --out files "
                         "again (e.g. after making references; several: runs split by --methods) instead of running")
     args = parser.parse_args()
@@ -249,7 +252,7 @@ def main() -> None:
         start, load0 = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), os.getloadavg()
         if args.out:
             args.out.parent.mkdir(parents=True, exist_ok=True)  # e.g. runs/ on a fresh checkout
-        tasks = sorted(((c, m, args.quick, args.seed) for m in args.methods for c in args.cases
+        tasks = sorted(((c, m, args.quick, args.seed, args.emulator_options) for m in args.methods for c in args.cases
                         if m != "gpry" or c in args.gpry_cases), key=lambda t: t[1] != "gpry")  # longest first
 
         def save(done: list[dict]) -> None:

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from torchshm.inference.adaptive import sampling
+from torchshm.inference.adaptive.mixture import Mixture, fit_mixture
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint
 from torchshm.inference.adaptive.runs import RunSet
 from torchshm.inference.posterior import Posterior
@@ -25,6 +26,18 @@ BEYOND_MARGIN = 0.05
 #: the stop rule runs the model past the runs while this share of the posterior draws lies at
 #: their edge or beyond it (:func:`edge_rows`); the check warns at this share beyond them
 EXTRAPOLATION_SHARE = 0.05
+#: importance sampling is made again from a mixture fitted to its own draws when its
+#: effective sample size is below this share of the draws
+REFIT_SHARE = 0.25
+#: fewest effective importance samples from which the draws are resampled; below it the
+#: returned draws are the chain's (thinned) and the evidence is flagged
+MIN_ESS = 200.0
+#: fewest effective importance samples whose resampled draws a mixture is fitted to again
+MIN_REFIT_ESS = 50.0
+#: widening of the defensive part of the second proposal (the first: 2)
+WIDE = 3.0
+#: share of the proposal in the mixture widened, and in its slabs (:meth:`.Mixture.with_slabs`)
+DEFENSIVE, SLABS = 0.25, 0.2
 
 
 def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, last: np.ndarray,
@@ -38,8 +51,8 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
         more, _ = sampling.run_chain(log_joint, walkers, extra["n_final_steps"], seed + 7,
                                      hop=extra["hop"])
         chain = np.concatenate([last, more])
-    vp = sampling.fit_density(chain, extra["hard"], extra["plausible"], seed)
-    log_z, log_z_sd, ess, samples = sampling.importance(log_joint, vp, extra["n_evidence"], seed)
+    log_z, log_z_sd, ess, samples, vp, source = posterior_draws(
+        log_joint, chain, extra["hard"], extra["plausible"], extra["n_evidence"], seed)
     if not converged:
         warnings.warn(
             f"method='emulator' stopped at its cap of {extra['budget']} model runs before "
@@ -53,7 +66,7 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
     diagnostics = {
         "rounds": rounds, "n_rounds": len(rounds), "n_failed_evaluations": runs.n_failed,
         "n_reused_runs": extra["n_reused_runs"], "n_emulator_runs": int(runs.theta_p.shape[0]),
-        "evidence_ess": ess, "n_walkers": extra["n_walkers"],
+        "evidence_ess": ess, "posterior_draws": source, "n_walkers": extra["n_walkers"],
         "wall_time_s": time.perf_counter() - extra["t0"],
         "final_cpu_time_s": time.process_time() - cpu,
         **beyond_runs(np.asarray(samples), list(problem.names), list(problem.physical_names),
@@ -68,6 +81,57 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
         diagnostics=diagnostics, priors=dict(getattr(problem, "priors", {}) or {}),
         history=trace.history(), variational=vp, n_chains=1, problem=problem,
     )
+
+
+def posterior_draws(log_joint: EmulatedLogJoint, chain: np.ndarray, hard: np.ndarray,
+                    plausible: np.ndarray, n: int, seed: int) -> tuple[
+                        float, float, float, np.ndarray, Any, str]:
+    """Evidence, draws and stored density of the emulated posterior from its chain `S x D`.
+
+    Importance sampling from the full-covariance mixture of the chain (:mod:`.mixture`),
+    widened, and with slabs that carry each coordinate over the plausible box
+    (:meth:`.Mixture.with_slabs`); when its effective sample size is below :data:`REFIT_SHARE` of ``n``,
+    again from the same mixture widened more (:data:`WIDE`: tails heavier than the mixture's,
+    e.g. mass piled against a bound, which the unbounded coordinates stretch into a long tail)
+    and from a mixture fitted to the first draws (which the weights moved to where the
+    posterior's mass is: a mode the chain under-filled), keeping the largest effective sample.
+    Below :data:`MIN_ESS` the draws are the chain's, thinned to ``n``, and a warning says so.
+
+    Returns:
+        ``(log_z, log_z_sd, ess, draws, vp, source)``: the log evidence [nats] and its Monte
+        Carlo sd, the effective sample size, `n x D` draws, the PyVBMC density fitted to the
+        draws (scale of one mode: :meth:`.mixture.Mixture.pooled_sd`) and ``"importance"``
+        or ``"chain"``.
+    """
+    tr = sampling.transformer(hard, plausible)
+    mix = fit_mixture(chain, tr, seed)
+
+    def proposal(fitted: Mixture, factor: float) -> Mixture:
+        return fitted.widened(factor, DEFENSIVE).with_slabs(plausible, SLABS)
+
+    best = sampling.importance(log_joint, proposal(mix, 2.0), n, seed)
+    if best.ess < REFIT_SHARE * n:  # tails heavier than the defensive part's, or a mode missed
+        tries = [mix]
+        if best.ess >= MIN_REFIT_ESS:
+            tries.append(fit_mixture(best.draws, tr, seed + 1))
+        for i, fitted in enumerate(tries):
+            other = sampling.importance(log_joint, proposal(fitted, WIDE if i == 0 else 2.0), n,
+                                        seed + 1 + i)
+            if other.ess > best.ess:
+                best, mix = other, fitted
+    log_z, log_z_sd, ess, draws = best.log_z, best.sd, best.ess, best.draws
+    source = "importance"
+    if ess < MIN_ESS:
+        source = "chain"
+        draws = chain[np.linspace(0, chain.shape[0] - 1, min(n, chain.shape[0])).astype(int)]
+        warnings.warn(
+            f"method='emulator': importance sampling of the emulated posterior kept {ess:.0f} "
+            f"effective draws of {n} (fewer than {MIN_ESS:.0f}); the posterior draws are the "
+            "chain's (their shares of several modes are the chain's) and the log evidence is "
+            "unreliable: raise final_steps and n_evidence",
+            RuntimeWarning, stacklevel=4)
+    vp = sampling.fit_density(draws, hard, plausible, seed, scale=mix.pooled_sd())
+    return log_z, log_z_sd, ess, draws, vp, source
 
 
 def beyond_runs(samples: np.ndarray, names: list[str], physical: list[str], theta_p: np.ndarray,

@@ -1,18 +1,21 @@
 """Posterior, density and evidence on the emulated log joint (no model runs).
 
 Each round samples the emulated log joint with emcee (vectorised; walkers start where the
-previous round's ended). The final posterior also gets a density: a Gaussian mixture fitted to
-the samples in PyVBMC's unbounded coordinates and stored as a PyVBMC ``VariationalPosterior``,
-so that ``log_pdf``, ``kl_divergence`` and saving work as for VBMC. Importance sampling from
-that mixture widened for heavier tails (a defensive proposal) then gives the log evidence, with
-its Monte Carlo standard deviation, and the returned posterior draws (resampled by weight:
-nearly independent draws, so far less Monte Carlo error than the correlated chain).
+previous round's ended). The final step (:mod:`.final`) draws the posterior by importance
+sampling from a full-covariance Gaussian mixture fitted to the chain and widened for heavier
+tails (:mod:`.mixture`; a defensive proposal): the log evidence with its Monte Carlo standard
+deviation, and the returned draws (resampled by weight: nearly independent, so far less Monte
+Carlo error than the correlated chain). A PyVBMC ``VariationalPosterior`` fitted to those
+draws is the stored density, so that ``log_pdf``, ``kl_divergence`` and saving work as for
+VBMC.
 """
 
 from __future__ import annotations
 
-from typing import Any, Callable
+import warnings
+from typing import Callable, NamedTuple, Protocol
 
+import arviz as az
 import emcee
 import numpy as np
 from pyvbmc import VariationalPosterior
@@ -22,6 +25,14 @@ from scipy.stats import chi2
 from sklearn.mixture import GaussianMixture
 
 LogDensity = Callable[[np.ndarray], np.ndarray]
+
+
+class Proposal(Protocol):
+    """An importance proposal: draws and their log density in the original coordinates."""
+
+    def sample(self, n: int, rng: np.random.Generator) -> np.ndarray: ...
+
+    def log_pdf(self, theta: np.ndarray) -> np.ndarray: ...
 
 
 def run_chain(log_joint: LogDensity, start: np.ndarray, n_steps: int, seed: int,
@@ -94,16 +105,19 @@ def transformer(hard: np.ndarray, plausible: np.ndarray) -> ParameterTransformer
 
 
 def fit_density(samples: np.ndarray, hard: np.ndarray, plausible: np.ndarray, seed: int,
-                max_components: int = 8) -> VariationalPosterior:
+                max_components: int = 8, scale: np.ndarray | None = None) -> VariationalPosterior:
     """A PyVBMC ``VariationalPosterior`` (Gaussian mixture) fitted to ``samples`` `S x D`.
 
     The mixture lives in PyVBMC's unbounded coordinates; its components share a scale per
     coordinate (``lambd``) and have one width each (``sigma``), PyVBMC's parametrisation. The
-    number of components is chosen by BIC up to ``max_components``.
+    scale is ``scale`` `D` when given (e.g. :meth:`.mixture.Mixture.pooled_sd`, the width of
+    one mode, so that modes far apart in a coordinate in which each is narrow are each covered
+    by a few components), else the samples' sd. The number of components is chosen by BIC up
+    to ``max_components``.
     """
     tr = transformer(hard, plausible)
     z = tr(samples)
-    lambd = z.std(axis=0) + 1e-12
+    lambd = (z.std(axis=0) if scale is None else np.asarray(scale, dtype=np.float64)) + 1e-12
     u = (z - z.mean(axis=0)) / lambd
     best, best_bic = None, np.inf
     for k in range(1, max_components + 1):
@@ -124,35 +138,42 @@ def fit_density(samples: np.ndarray, hard: np.ndarray, plausible: np.ndarray, se
     return vp
 
 
-def widened(vp: VariationalPosterior, factor: float = 2.0, share: float = 0.3,
-            ) -> VariationalPosterior:
-    """The mixture ``(1 - share) vp + share vp'`` with ``vp'`` = ``vp`` widened by ``factor``."""
-    out = VariationalPosterior(D=vp.D, K=2 * vp.K, parameter_transformer=vp.parameter_transformer,
-                               rng=np.random.default_rng(0))
-    out.w = np.hstack([(1 - share) * vp.w, share * vp.w])
-    out.eta = np.log(out.w)
-    out.mu = np.hstack([vp.mu, vp.mu])
-    out.sigma = np.hstack([vp.sigma, factor * vp.sigma])
-    out.lambd = vp.lambd.copy()
-    return out
+class Importance(NamedTuple):
+    """Result of :func:`importance`."""
+
+    #: log evidence [nats]
+    log_z: float
+    #: its Monte Carlo standard deviation (delta method) [nats]
+    sd: float
+    #: effective sample size of the weights
+    ess: float
+    #: `n x D` draws resampled by weight
+    draws: np.ndarray
+    #: Pareto shape of the largest weights' tail (Vehtari et al., PSIS): above 0.7 the
+    #: estimates are unreliable whatever the effective sample size says
+    khat: float
 
 
-def importance(log_joint: LogDensity, vp: VariationalPosterior, n: int, seed: int,
-               ) -> tuple[float, float, float, np.ndarray]:
-    """Log evidence [nats] and posterior draws by importance sampling from the widened ``vp``.
+def importance(log_joint: LogDensity, proposal: Proposal, n: int, seed: int) -> Importance:
+    """Log evidence [nats] and posterior draws by importance sampling from ``proposal``.
+
+    Args:
+        log_joint: vectorised unnormalised log posterior of rows `B x D`.
+        proposal: a density with ``sample(n, rng)`` and ``log_pdf(theta)`` (e.g. a
+            :class:`.mixture.Mixture`, widened for heavier tails).
+        n: number of importance samples.
+        seed: seed of the draws and of the resampling.
 
     Returns:
-        ``(log_z, sd, ess, draws)``: the log evidence, its Monte Carlo standard deviation
-        (delta method), the effective sample size of the weights, and `n x D` draws resampled
-        by weight (systematic resampling), distributed as the posterior up to the proposal's
-        Monte Carlo error.
+        The log evidence, its Monte Carlo sd, the effective sample size, `n x D` draws
+        resampled by weight (systematic resampling, distributed as the posterior up to the
+        proposal's Monte Carlo error) and the Pareto diagnostic of the weights (ArviZ's
+        ``psislw``).
     """
     rng = np.random.default_rng([seed, 19])
-    proposal = widened(vp)
-    proposal.rng = rng
-    draws, _ = proposal.sample(int(n))
-    log_q = np.asarray(proposal.pdf(draws, log_flag=True), dtype=np.float64).reshape(-1)
-    log_w = log_joint(draws) - log_q
+    draws = proposal.sample(int(n), rng)
+    log_q = np.asarray(proposal.log_pdf(draws), dtype=np.float64).reshape(-1)
+    log_w = np.asarray(log_joint(draws), dtype=np.float64) - log_q
     log_w[~np.isfinite(log_w)] = -np.inf
     log_z = float(logsumexp(log_w) - np.log(n))
     w = np.exp(log_w - log_w.max())
@@ -160,7 +181,19 @@ def importance(log_joint: LogDensity, vp: VariationalPosterior, n: int, seed: in
     rel = float(np.std(w / w.mean(), ddof=1) / np.sqrt(n))
     positions = (rng.random() + np.arange(n)) / n
     index = np.minimum(np.searchsorted(np.cumsum(w) / w.sum(), positions), n - 1)
-    return log_z, rel, ess, draws[rng.permutation(index)]
+    return Importance(log_z, rel, ess, draws[rng.permutation(index)], pareto_k(log_w))
+
+
+def pareto_k(log_w: np.ndarray) -> float:
+    """Pareto shape `k` of the upper tail of the log weights ``log_w`` `n` (ArviZ's PSIS fit;
+    ``inf`` when no weight is finite)."""
+    finite = log_w[np.isfinite(log_w)]
+    if finite.size < 10:
+        return float("inf")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # ArviZ warns above 0.7: the caller decides
+        _, khat = az.psislw(finite - finite.max())
+    return float(khat)
 
 
 def total_variation(log_new: np.ndarray, log_old: np.ndarray) -> float:
