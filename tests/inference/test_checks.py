@@ -122,3 +122,16 @@ def test_posterior_mass_beyond_every_model_run_is_flagged_and_mass_among_them_is
     assert "EXTRAPOLATION" not in warning_tags(check_fit(Posterior(
         ["E", "log10_k", "sigma_a"], "emulator", inside, converged=True, diagnostics=found,
         priors=priors)).warnings)
+
+
+def test_an_emulator_posterior_drawn_from_its_chain_is_flagged_and_one_drawn_by_weight_is_not() -> None:
+    rng = np.random.default_rng(3)
+    samples = np.column_stack([rng.normal(35.0, 1.0, 4000), rng.gamma(20.0, 0.05, 4000)])
+
+    def checked(source: str) -> str:
+        post = Posterior(["E", "sigma_a"], "emulator", samples, converged=True, priors=PRIORS,
+                         diagnostics={"posterior_draws": source, "evidence_ess": 57.0})
+        return warning_tags(check_fit(post).warnings)
+
+    assert checked("chain") == "EVIDENCE"
+    assert checked("importance") == ""

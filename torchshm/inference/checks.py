@@ -9,6 +9,8 @@ fix, and to ``post.diagnostics`` the numbers behind them. No check runs the forw
   (:func:`bound_shares`).
 - ``EXTRAPOLATION``: an emulator's posterior reaching past every model run
   (:func:`extrapolation_lines`).
+- ``EVIDENCE``: the emulator's importance sampling kept too few effective draws, so its draws
+  are the chain's and its log evidence is unreliable (:func:`evidence_line`).
 - ``NOISE MODEL``: the measured strains contradict the assumed noise levels
   (:mod:`torchshm.inference.noise_check`).
 """
@@ -48,6 +50,7 @@ def check_fit(post: Posterior) -> Posterior:
         if share >= BOUND_FACTOR * EDGE:
             lines.append(bound_line(name, end, bound, share))
     lines += extrapolation_lines(post)
+    lines.append(evidence_line(post))
     try:
         noise_line, numbers = noise_check(post)
     except Exception as err:  # noqa: BLE001 - a check must never cost a finished posterior
@@ -103,6 +106,19 @@ def extrapolation_lines(post: Posterior) -> list[str]:
                        "store with a larger max_model_evaluations or n_initial, or a plausible "
                        "box that covers where the posterior lies (finished runs are reused)")
     return out
+
+
+def evidence_line(post: Posterior) -> str | None:
+    """``EVIDENCE``: the emulator's final importance sampling fell back to the chain
+    (``diagnostics["posterior_draws"] == "chain"``, :func:`torchshm.inference.adaptive.final.posterior_draws`)."""
+    d = post.diagnostics
+    if d.get("posterior_draws") != "chain":
+        return None
+    return (f"EVIDENCE: importance sampling of the emulated posterior kept "
+            f"{float(d.get('evidence_ess', 0.0)):.0f} effective draws, too few: the posterior "
+            "draws are the emulator chain's (the shares of several modes are the chain's) and "
+            "the log evidence and Bayes factors are unreliable. Fix: rerun on the same store "
+            "with larger final_steps and n_evidence (no new model runs)")
 
 
 def _failed_runs(name: str) -> str:
@@ -169,4 +185,4 @@ def warning_tags(lines: list[str] | tuple[str, ...], parameters: bool = True) ->
 
 
 __all__ = ["BOUND_FACTOR", "EDGE", "EXTRAPOLATION_SHARE", "bound_line", "bound_shares",
-           "check_fit", "convergence_line", "extrapolation_lines", "run_lines", "warning_tags"]
+           "check_fit", "convergence_line", "evidence_line", "extrapolation_lines", "run_lines", "warning_tags"]
