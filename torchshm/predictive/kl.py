@@ -7,9 +7,9 @@ one the problem used). Two sources of ``log q``:
 - ``"posterior density"``: the posterior has one (``post.log_pdf``: VBMC's variational
   posterior, the emulator method's fitted mixture); the estimate is the mean over ``n`` draws
   of ``q``, with its Monte Carlo standard error;
-- ``"fitted mixture"``: the posterior has samples only (emcee). A Gaussian mixture is fitted
-  to half of the samples in PyVBMC's unbounded coordinates (the emulator method's
-  :func:`~torchshm.inference.adaptive.sampling.fit_density`) and ``log q`` is evaluated on the
+- ``"fitted mixture"``: the posterior has samples only (emcee). A Gaussian mixture with full
+  covariances is fitted to half of the samples in PyVBMC's unbounded coordinates (the emulator
+  method's importance proposal, :func:`~torchshm.inference.adaptive.mixture.fit_mixture`) and ``log q`` is evaluated on the
   other, held-out half; the halves are the first and second half of the chain, and the two
   ways round are averaged. A held-out density underestimates the KL by ``KL(q || q_fit)``; the
   same density evaluated on its own half overestimates it (it has seen those samples). The
@@ -120,7 +120,8 @@ def _log_prior(post: PosteriorLike, names: list[str], theta: np.ndarray) -> np.n
 
 def _fitted(post: PosteriorLike, names: list[str], n: int, seed: int) -> KLEstimate:
     """The fitted-mixture estimate (module docstring) from ``post.samples``."""
-    from torchshm.inference.adaptive.sampling import fit_density
+    from torchshm.inference.adaptive.mixture import fit_mixture
+    from torchshm.inference.adaptive.sampling import transformer
 
     samples = np.asarray(getattr(post, "samples", np.zeros((0, len(names)))), dtype=np.float64)
     if samples.shape[0] < 2 * MIN_SAMPLES_PER_DIM * len(names):
@@ -135,10 +136,10 @@ def _fitted(post: PosteriorLike, names: list[str], n: int, seed: int) -> KLEstim
     log_p = [_log_prior(post, names, h) for h in halves]
     held, own = [], []
     for i, half in enumerate(halves):
-        vp = fit_density(half, hard, plausible, seed)
+        mix = fit_mixture(half, transformer(np.asarray(hard), np.asarray(plausible)), seed)
         other = halves[1 - i]
-        held.append(np.asarray(vp.pdf(other, log_flag=True), dtype=np.float64).reshape(-1) - log_p[1 - i])
-        own.append(np.asarray(vp.pdf(half, log_flag=True), dtype=np.float64).reshape(-1) - log_p[i])
+        held.append(mix.log_pdf(other) - log_p[1 - i])
+        own.append(mix.log_pdf(half) - log_p[i])
     diff = np.concatenate(held[::-1])  # chain order: first half, then second half
     if not np.all(np.isfinite(diff)):
         raise ValueError("kl_divergence: the fitted density is not finite at some samples")
