@@ -115,5 +115,7 @@ def test_posterior_draws_match_the_target_moments() -> None:
     assert np.allclose(np.cov(draws.T), cov, atol=0.06)
     vp_draws, _ = vp.sample(8000)
     assert np.allclose(vp_draws.mean(0), mean, atol=0.1)
+    # the stored density is rotated to the mode's shape: the correlation is kept
+    assert np.allclose(np.cov(vp_draws.T), cov, atol=0.08)
     assert float(logsumexp(vp.pdf(draws, log_flag=True).ravel() - target.logpdf(draws))
                  - np.log(8000)) == pytest.approx(0.0, abs=0.2)

@@ -100,7 +100,7 @@ def posterior_draws(log_joint: EmulatedLogJoint, chain: np.ndarray, hard: np.nda
     Returns:
         ``(log_z, log_z_sd, ess, draws, vp, source)``: the log evidence [nats] and its Monte
         Carlo sd, the effective sample size, `n x D` draws, the PyVBMC density fitted to the
-        draws (scale of one mode: :meth:`.mixture.Mixture.pooled_sd`) and ``"importance"``
+        draws (in the coordinates of one mode's shape: :meth:`.mixture.Mixture.pooled_covariance`) and ``"importance"``
         or ``"chain"``.
     """
     tr = sampling.transformer(hard, plausible)
@@ -130,7 +130,7 @@ def posterior_draws(log_joint: EmulatedLogJoint, chain: np.ndarray, hard: np.nda
             "chain's (their shares of several modes are the chain's) and the log evidence is "
             "unreliable: raise final_steps and n_evidence",
             RuntimeWarning, stacklevel=4)
-    vp = sampling.fit_density(draws, hard, plausible, seed, scale=mix.pooled_sd())
+    vp = sampling.fit_density(draws, hard, plausible, seed, covariance=mix.pooled_covariance())
     return log_z, log_z_sd, ess, draws, vp, source
 
 

@@ -122,11 +122,10 @@ class Mixture:
                        np.concatenate([self.covariances, covs.reshape(dim * k, dim, dim)]),
                        self.transformer, np.concatenate([self.dofs, np.tile(self.dofs, dim)]))
 
-    def pooled_sd(self) -> np.ndarray:
-        """`D` sd of each unbounded coordinate within the components (weighted mean of
-        their variances): the scale of one mode rather than of the spread between modes."""
-        var = np.einsum("k,kdd->d", self.weights, self.covariances)
-        return np.sqrt(var)
+    def pooled_covariance(self) -> np.ndarray:
+        """`D x D` covariance within the components (their weighted mean), in the unbounded
+        coordinates: the shape of one mode rather than the spread between modes."""
+        return np.einsum("k,kde->de", self.weights, self.covariances)
 
 
 def fit_mixture(samples: np.ndarray, transformer: ParameterTransformer, seed: int,

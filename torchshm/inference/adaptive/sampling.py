@@ -98,26 +98,38 @@ def walkers_from(samples: np.ndarray, n_walkers: int, rng: np.random.Generator) 
     return samples[index].copy()
 
 
-def transformer(hard: np.ndarray, plausible: np.ndarray) -> ParameterTransformer:
-    """PyVBMC's transform of the bounded parameters to unbounded ones (as VBMC builds it)."""
+def transformer(hard: np.ndarray, plausible: np.ndarray, covariance: np.ndarray | None = None,
+                ) -> ParameterTransformer:
+    """PyVBMC's transform of the bounded parameters to unbounded ones (as VBMC builds it);
+    with ``covariance`` `D x D` (of the unbounded coordinates), followed by PyVBMC's
+    "rotoscaling" to the coordinates in which that covariance is the identity."""
     lb, ub, plb, pub = (v.reshape(1, -1).copy() for v in (*hard.T, *plausible.T))
-    return ParameterTransformer(hard.shape[0], lb, ub, plb, pub, transform_type="probit")
+    rotation = scale = None
+    if covariance is not None:
+        values, rotation = np.linalg.eigh(np.asarray(covariance, dtype=np.float64))
+        scale = np.sqrt(np.maximum(values, 1e-12 * max(float(values.max()), 1e-300)))
+    return ParameterTransformer(hard.shape[0], lb, ub, plb, pub, transform_type="probit",
+                                rotation_matrix=rotation, scale=scale)
 
 
 def fit_density(samples: np.ndarray, hard: np.ndarray, plausible: np.ndarray, seed: int,
-                max_components: int = 8, scale: np.ndarray | None = None) -> VariationalPosterior:
+                max_components: int = 8, covariance: np.ndarray | None = None,
+                ) -> VariationalPosterior:
     """A PyVBMC ``VariationalPosterior`` (Gaussian mixture) fitted to ``samples`` `S x D`.
 
     The mixture lives in PyVBMC's unbounded coordinates; its components share a scale per
-    coordinate (``lambd``) and have one width each (``sigma``), PyVBMC's parametrisation. The
-    scale is ``scale`` `D` when given (e.g. :meth:`.mixture.Mixture.pooled_sd`, the width of
-    one mode, so that modes far apart in a coordinate in which each is narrow are each covered
-    by a few components), else the samples' sd. The number of components is chosen by BIC up
-    to ``max_components``.
+    coordinate (``lambd``) and have one width each (``sigma``), PyVBMC's parametrisation, so
+    it cannot give each component its own shape. With ``covariance`` `D x D` of one mode in
+    the unbounded coordinates (e.g. :meth:`.mixture.Mixture.pooled_covariance`), the
+    coordinates are first rotated and scaled so that it is the identity (PyVBMC's
+    rotoscaling, kept in the transform): a correlated mode, or several modes of one shape far
+    apart, are then each covered by a few round components. Without it the scale is the
+    samples' sd per coordinate. The number of components is chosen by BIC up to
+    ``max_components``.
     """
-    tr = transformer(hard, plausible)
+    tr = transformer(hard, plausible, covariance)
     z = tr(samples)
-    lambd = (z.std(axis=0) if scale is None else np.asarray(scale, dtype=np.float64)) + 1e-12
+    lambd = (z.std(axis=0) if covariance is None else np.ones(z.shape[1])) + 1e-12
     u = (z - z.mean(axis=0)) / lambd
     best, best_bic = None, np.inf
     for k in range(1, max_components + 1):
