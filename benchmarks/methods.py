@@ -81,6 +81,7 @@ def run_torchshm(problem: Any, method: str, quick: bool, seed: int,
     if method == "emulator":
         out["rounds"] = int(sum(math.ceil(r["n_new_runs"] / WORKERS) for r in post.diagnostics["rounds"]))
         out["evidence_ess"] = float(post.diagnostics["evidence_ess"])
+        out["evidence_khat"] = float(post.diagnostics["evidence_khat"])
     return out
 
 

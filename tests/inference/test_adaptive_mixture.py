@@ -94,7 +94,8 @@ def test_a_proposal_that_misses_the_posterior_returns_the_chain_and_warns() -> N
 
     with pytest.warns(RuntimeWarning, match="effective draws"):
         out = posterior_draws(narrow, chain, hard, plausible, 2000, seed=0)
-    log_z, _, ess, draws, vp, source = out
+    result, vp, source = out
+    ess, draws = result.ess, result.draws
     assert ess < MIN_ESS and source == "chain"
     assert draws.shape == (2000, 1) and np.all(np.isin(draws, chain))
     assert np.isfinite(vp.pdf(draws[:5], log_flag=True)).all()
@@ -107,8 +108,9 @@ def test_posterior_draws_match_the_target_moments() -> None:
     hard = np.array([[-np.inf, np.inf], [-np.inf, np.inf]])
     plausible = np.array([[-3.0, 5.0], [-2.0, 6.0]])
     chain = np.random.default_rng(4).multivariate_normal(mean, cov, 3000)
-    log_z, sd, ess, draws, vp, source = posterior_draws(
+    (log_z, sd, ess, draws, khat), vp, source = posterior_draws(
         lambda r: target.logpdf(r) + 3.0, chain, hard, plausible, 8000, seed=1)
+    assert khat < 0.5
     assert source == "importance" and ess > 0.5 * 8000
     assert log_z == pytest.approx(3.0, abs=max(5 * sd, 0.01))
     assert np.allclose(draws.mean(0), mean, atol=0.05)

@@ -51,8 +51,9 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
         more, _ = sampling.run_chain(log_joint, walkers, extra["n_final_steps"], seed + 7,
                                      hop=extra["hop"])
         chain = np.concatenate([last, more])
-    log_z, log_z_sd, ess, samples, vp, source = posterior_draws(
-        log_joint, chain, extra["hard"], extra["plausible"], extra["n_evidence"], seed)
+    result, vp, source = posterior_draws(log_joint, chain, extra["hard"], extra["plausible"],
+                                         extra["n_evidence"], seed)
+    log_z, log_z_sd, samples = result.log_z, result.sd, result.draws
     if not converged:
         warnings.warn(
             f"method='emulator' stopped at its cap of {extra['budget']} model runs before "
@@ -66,7 +67,7 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
     diagnostics = {
         "rounds": rounds, "n_rounds": len(rounds), "n_failed_evaluations": runs.n_failed,
         "n_reused_runs": extra["n_reused_runs"], "n_emulator_runs": int(runs.theta_p.shape[0]),
-        "evidence_ess": ess, "posterior_draws": source, "n_walkers": extra["n_walkers"],
+        "evidence_ess": result.ess, "evidence_khat": result.khat, "posterior_draws": source, "n_walkers": extra["n_walkers"],
         "wall_time_s": time.perf_counter() - extra["t0"],
         "final_cpu_time_s": time.process_time() - cpu,
         **beyond_runs(np.asarray(samples), list(problem.names), list(problem.physical_names),
@@ -84,8 +85,8 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
 
 
 def posterior_draws(log_joint: EmulatedLogJoint, chain: np.ndarray, hard: np.ndarray,
-                    plausible: np.ndarray, n: int, seed: int) -> tuple[
-                        float, float, float, np.ndarray, Any, str]:
+                    plausible: np.ndarray, n: int, seed: int,
+                    ) -> tuple[sampling.Importance, Any, str]:
     """Evidence, draws and stored density of the emulated posterior from its chain `S x D`.
 
     Importance sampling from the full-covariance mixture of the chain (:mod:`.mixture`),
@@ -98,10 +99,11 @@ def posterior_draws(log_joint: EmulatedLogJoint, chain: np.ndarray, hard: np.nda
     Below :data:`MIN_ESS` the draws are the chain's, thinned to ``n``, and a warning says so.
 
     Returns:
-        ``(log_z, log_z_sd, ess, draws, vp, source)``: the log evidence [nats] and its Monte
-        Carlo sd, the effective sample size, `n x D` draws, the PyVBMC density fitted to the
-        draws (in the coordinates of one mode's shape: :meth:`.mixture.Mixture.pooled_covariance`) and ``"importance"``
-        or ``"chain"``.
+        ``(result, vp, source)``: the kept :class:`.sampling.Importance` (log evidence [nats],
+        its Monte Carlo sd, effective sample size, Pareto k-hat and `n x D` draws, the chain's
+        when ``source`` is ``"chain"``), the PyVBMC density fitted to the draws (in the
+        coordinates of one mode's shape: :meth:`.mixture.Mixture.pooled_covariance`) and
+        ``"importance"`` or ``"chain"``.
     """
     tr = sampling.transformer(hard, plausible)
     mix = fit_mixture(chain, tr, seed)
@@ -119,19 +121,20 @@ def posterior_draws(log_joint: EmulatedLogJoint, chain: np.ndarray, hard: np.nda
                                         seed + 1 + i)
             if other.ess > best.ess:
                 best, mix = other, fitted
-    log_z, log_z_sd, ess, draws = best.log_z, best.sd, best.ess, best.draws
     source = "importance"
-    if ess < MIN_ESS:
+    if best.ess < MIN_ESS:
         source = "chain"
-        draws = chain[np.linspace(0, chain.shape[0] - 1, min(n, chain.shape[0])).astype(int)]
+        best = best._replace(draws=chain[np.linspace(0, chain.shape[0] - 1,
+                                                     min(n, chain.shape[0])).astype(int)])
         warnings.warn(
-            f"method='emulator': importance sampling of the emulated posterior kept {ess:.0f} "
+            f"method='emulator': importance sampling of the emulated posterior kept {best.ess:.0f} "
             f"effective draws of {n} (fewer than {MIN_ESS:.0f}); the posterior draws are the "
             "chain's (their shares of several modes are the chain's) and the log evidence is "
             "unreliable: raise final_steps and n_evidence",
             RuntimeWarning, stacklevel=4)
-    vp = sampling.fit_density(draws, hard, plausible, seed, covariance=mix.pooled_covariance())
-    return log_z, log_z_sd, ess, draws, vp, source
+    vp = sampling.fit_density(best.draws, hard, plausible, seed,
+                              covariance=mix.pooled_covariance())
+    return best, vp, source
 
 
 def beyond_runs(samples: np.ndarray, names: list[str], physical: list[str], theta_p: np.ndarray,

@@ -140,18 +140,27 @@ def fit_mixture(samples: np.ndarray, transformer: ParameterTransformer, seed: in
     center, scale = z.mean(axis=0), z.std(axis=0) + 1e-12
     u = (z - center) / scale  # sklearn's reg_covar is absolute: fit in standard units
     max_components = max(1, min(int(max_components), u.shape[0] // (2 * u.shape[1] + 2)))
+    best = best_by_bic(u, "full", seed, max_components, patience)
+    cov = best.covariances_ * scale[None, :, None] * scale[None, None, :]
+    return Mixture(best.weights_.copy(), best.means_ * scale + center, cov, transformer)
+
+
+def best_by_bic(u: np.ndarray, covariance_type: str, seed: int, max_components: int,
+                patience: int | None = None, max_iter: int = 200) -> GaussianMixture:
+    """sklearn's ``GaussianMixture`` of ``covariance_type`` that fits ``u`` `S x D` (standard
+    units) best by BIC, trying 1 to ``max_components`` components; with ``patience``, the
+    search ends after that many numbers of components in a row that do not improve it."""
     best, best_bic, worse = None, np.inf, 0
-    for k in range(1, max_components + 1):
-        gm = GaussianMixture(k, covariance_type="full", random_state=seed, reg_covar=1e-6,
-                             n_init=1, max_iter=200)
+    for k in range(1, int(max_components) + 1):
+        gm = GaussianMixture(k, covariance_type=covariance_type, random_state=seed,
+                             reg_covar=1e-6, max_iter=max_iter)
         gm.fit(u)
         bic = gm.bic(u)
         if bic < best_bic:
             best, best_bic, worse = gm, bic, 0
         else:
             worse += 1
-            if worse >= patience:
+            if patience is not None and worse >= patience:
                 break
     assert best is not None
-    cov = best.covariances_ * scale[None, :, None] * scale[None, None, :]
-    return Mixture(best.weights_.copy(), best.means_ * scale + center, cov, transformer)
+    return best

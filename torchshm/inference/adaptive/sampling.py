@@ -22,7 +22,8 @@ from pyvbmc import VariationalPosterior
 from pyvbmc.parameter_transformer import ParameterTransformer
 from scipy.special import logsumexp
 from scipy.stats import chi2
-from sklearn.mixture import GaussianMixture
+
+from torchshm.inference.adaptive.mixture import best_by_bic
 
 LogDensity = Callable[[np.ndarray], np.ndarray]
 
@@ -131,14 +132,7 @@ def fit_density(samples: np.ndarray, hard: np.ndarray, plausible: np.ndarray, se
     z = tr(samples)
     lambd = (z.std(axis=0) if covariance is None else np.ones(z.shape[1])) + 1e-12
     u = (z - z.mean(axis=0)) / lambd
-    best, best_bic = None, np.inf
-    for k in range(1, max_components + 1):
-        gm = GaussianMixture(k, covariance_type="spherical", random_state=seed, reg_covar=1e-6)
-        gm.fit(u)
-        bic = gm.bic(u)
-        if bic < best_bic:
-            best, best_bic = gm, bic
-    assert best is not None
+    best = best_by_bic(u, "spherical", seed, max_components, max_iter=100)
     k = best.n_components
     vp = VariationalPosterior(D=z.shape[1], K=k, parameter_transformer=tr,
                               rng=np.random.default_rng([seed, 17]))
