@@ -74,13 +74,12 @@ def run_emulator(
         n_jobs: local worker processes for a batch (joblib; needs a store when != 1).
         executor: a submitit executor (:func:`torchshm.storage.make_executor`; needs a store).
         n_initial: size of the initial design (None: the smallest multiple of ``batch_size``
-            of at least ``2 P + 1`` and ``2 batch_size``: with 5 runs for P = 2 the first
-            checked batch could agree with an emulator that had never seen the posterior).
+            of at least ``2 P + 1``).
         n_walkers: emcee walkers (None: ``max(96, 12 D)``: a likelihood call costs about the
             same for 10 or 50 walkers and emcee makes two calls per step, so many walkers and
             few steps are cheaper than the reverse).
-        n_steps: emcee steps per round (the second half is kept; twice as many in round 0,
-            whose walkers start from the prior).
+        n_steps: emcee steps per round (the second half is kept; in round 0 the walkers start
+            from the prior, stragglers moved onto the best ones first).
         final_steps: emcee steps on the last emulator after the last round's chain (which ran
             on it), whose samples together fit the posterior's mixture density.
         tv_tol, patience: stop once the total variation to the previous round's posterior is
@@ -174,7 +173,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             emulator = FieldEmulator.fit(runs.theta_p, runs.outputs, x_index, loads, transform,
                                          emulator_kernel, previous=emulator)
             log_joint = EmulatedLogJoint(problem, emulator, inflation)
-            steps = n_steps if r > 0 else 2 * n_steps
+            steps = n_steps
             scan = explore(log_joint, walkers[int(np.argmax(log_joint(walkers)))], columns[0],
                            plausible, rng, far_calibration)
             walkers, n_modes, modes = _spread(log_joint, walkers, runs, columns, hard,
@@ -273,8 +272,8 @@ def _spread(log_joint: EmulatedLogJoint, walkers: np.ndarray, runs: RunSet,
 
 def default_n_initial(n_phys: int, batch_size: int) -> int:
     """The default initial design for `P` physical parameters: the smallest multiple of
-    ``batch_size`` of at least ``2 P + 1`` and ``2 batch_size``."""
-    return batch_size * max(2, -(-(2 * n_phys + 1) // batch_size))
+    ``batch_size`` of at least ``2 P + 1``."""
+    return batch_size * max(1, -(-(2 * n_phys + 1) // batch_size))
 
 
 def default_cap(dim: int, n_initial: int, batch_size: int) -> int:
