@@ -146,6 +146,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     emulator: FieldEmulator | None = None
     prev_samples: np.ndarray | None = None
     calm, converged, inflation, far_calibration, far = 0, False, 1.0, 1.0, np.zeros((0, dim))
+    checked = False
     columns = ([names.index(n) for n in problem.physical_names if n in names],
                [i for i, n in enumerate(problem.physical_names) if n in names])
     n_modes = 1
@@ -164,7 +165,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             new, outputs = run_batch(problem, runs, batch, n_jobs, executor)
             check = (check_batch(previous, emulator, batch_rows, outputs[:len(batch_rows)])
                      if previous is not None and emulator is not None and batch_rows is not None
-                     else None)
+                     and len(batch_rows) else None)
             if check is not None and np.isfinite(check.calibration):
                 inflation = max(1.0, check.calibration)
             if previous is not None and far.shape[0]:  # the emulator's record at exploration runs
@@ -190,7 +191,9 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             mmtv = sampling.marginal_tv(samples, prev_samples) if prev_samples is not None else 1.0
             share, sd = log_joint.emulator_share(draws)
             calm = calm + 1 if tv < tv_tol else 0
-            checked = check is not None and check.passed(check_tol)
+            # a batch of exploration runs alone (below) leaves the last posterior check standing
+            checked = (check.passed(check_tol) if check is not None
+                       else checked and batch_rows is not None and not len(batch_rows))
             settled = calm >= patience and float(sd.mean()) < sd_tol and checked
             beyond = beyond_rows(draws, columns[0], runs.theta_p[:, columns[1]], hard)
             edge = edge_rows(draws, columns[0], runs.theta_p[:, columns[1]], hard)
@@ -230,10 +233,15 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             ext = (extrapolation_run(draws, extend, columns[0], runs.theta_p[:, columns[1]], hard)
                    if extend is not None else draws[:0])
             want -= ext.shape[0]
-            # exploration: one run, all but one once settled
+            # exploration: one run, all but one once settled; once settled with nothing to
+            # extend, the batch is the exploration's alone (as many runs as it has points, up
+            # to the batch): posterior draws that the rule finds nothing to learn at would
+            # only fill the batch
+            alone = settled and extend is None and scan.n_unresolved > 0
             far = exploration_batch(scan, emulator, physical_columns(problem, scan.rows),
-                                    min(want, max(1, want - 1) if settled else 1), rng)
-            want -= far.shape[0]
+                                    want if alone else min(want, max(1, want - 1) if settled else 1),
+                                    rng)
+            want = 0 if alone else want - far.shape[0]
             far = np.concatenate([far, ext])  # runs away from the posterior, checked apart
             batch, chosen = choose_batch(emulator, physical_columns(problem, draws), sd**2, want, rng)
             if len(chosen) < want:  # nothing left to learn by the rule: test at random draws
