@@ -19,6 +19,7 @@ from torchshm.inference import Posterior
 from torchshm.inference.adaptive.acquisition import choose_batch
 from torchshm.inference.adaptive.field import FieldEmulator
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint
+from torchshm.inference.adaptive.method import default_n_initial
 from torchshm.inference.adaptive.sampling import regroup, straggler_gap, total_variation
 
 SMALL = {"n_walkers": 16, "n_steps": 100, "final_steps": 300, "n_evidence": 2000}
@@ -177,5 +178,12 @@ def test_the_output_check_run_is_the_first_design_run() -> None:
         post = torchshm.identify(problem, "emulator", seed=0, max_model_evaluations=12, **SMALL)
     first = post.diagnostics["rounds"][0]
     assert calls[0] == 1 and post.diagnostics["n_reused_runs"] == 1  # the check, then the method
-    assert first["n_runs"] == 10 and first["n_new_runs"] == 9  # the design holds the checked run
+    design = default_n_initial(len(problem.physical_names), 5)
+    assert first["n_runs"] == design and first["n_new_runs"] == design - 1  # it holds the check's run
     assert sum(calls) == post.n_model_evaluations <= 12
+
+
+def test_default_design_is_the_smallest_multiple_of_the_batch_of_at_least_2p_plus_1() -> None:
+    """One batch of 5 for two physical parameters, two for three to four, three for six."""
+    assert [default_n_initial(p, 5) for p in (1, 2, 3, 4, 6)] == [5, 5, 10, 10, 15]
+    assert default_n_initial(2, 1) == 5 and default_n_initial(2, 2) == 6 and default_n_initial(2, 10) == 10

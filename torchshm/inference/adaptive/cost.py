@@ -1,9 +1,9 @@
 """The emulator method's own compute, estimated before the first model run.
 
 Each round evaluates the emulated likelihood at about ``1.5 n_walkers n_steps`` parameter
-vectors (the chain, the mode search, the exploration's Sobol points) and the end at about
-``n_evidence + n_walkers final_steps`` (measured on the main job: 7,400 vectors a round,
-12,000 at the end, for 96 walkers and 50 steps). On a fibre of a few
+vectors (the chain, the mode search, the exploration's Sobol points; twice that in round 0) and
+the end at about ``n_evidence + n_walkers final_steps`` (measured on the main job: 7,400 vectors
+a round, 10,600 in round 0, 12,000 at the end, for 96 walkers and 50 steps). On a fibre of a few
 hundred readings a vector costs a fraction of a millisecond in a batch; on a camera field with
 a sparse density per vector (kernel ``upscaled``: one sparse LU per vector and load case, about
 0.15 s at 1.6e5 points) a round costs half an hour or more, longer than the model runs it saves.
@@ -46,7 +46,7 @@ class OwnCost:
 
     Attributes:
         per_vector: one parameter vector of the emulated likelihood, in a batch.
-        per_round: one round.
+        per_round: one round (round 0 costs about twice as much).
         final: the final chain, density and evidence.
     """
 
@@ -98,8 +98,8 @@ def announce(problem: Problem, cost: OwnCost) -> None:
     n = int(np.prod(problem.y.shape))
     text = (f"method='emulator': the emulated likelihood costs about {cost.per_vector:.2g} s of "
             f"CPU per parameter vector here ({n} readings, kernel {problem.kernel.name!r}), "
-            f"so about {duration(cost.per_round)} of own compute per round and "
-            f"{duration(cost.final)} at the end")
+            f"so about {duration(cost.per_round)} of own compute per round (twice that in "
+            f"round 0) and {duration(cost.final)} at the end")
     if cost.per_round <= WARN_ROUND_S:
         logger.info(text)
         return

@@ -78,8 +78,8 @@ def run_emulator(
         n_walkers: emcee walkers (None: ``max(96, 12 D)``: a likelihood call costs about the
             same for 10 or 50 walkers and emcee makes two calls per step, so many walkers and
             few steps are cheaper than the reverse).
-        n_steps: emcee steps per round (the second half is kept; in round 0 the walkers start
-            from the prior, stragglers moved onto the best ones first).
+        n_steps: emcee steps per round (the second half is kept; twice as many in round 0,
+            whose walkers start from the prior).
         final_steps: emcee steps on the last emulator after the last round's chain (which ran
             on it), whose samples together fit the posterior's mixture density.
         tv_tol, patience: stop once the total variation to the previous round's posterior is
@@ -174,7 +174,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             emulator = FieldEmulator.fit(runs.theta_p, runs.outputs, x_index, loads, transform,
                                          emulator_kernel, previous=emulator)
             log_joint = EmulatedLogJoint(problem, emulator, inflation)
-            steps = n_steps
+            steps = n_steps if r > 0 else 2 * n_steps
             scan = explore(log_joint, walkers[int(np.argmax(log_joint(walkers)))], columns[0],
                            plausible, rng, far_calibration)
             walkers, n_modes, modes = _spread(log_joint, walkers, runs, columns, hard,
