@@ -15,7 +15,8 @@ The steps, one round at a time:
    batch just run was predicted within ``check_tol`` nats (:mod:`.validation`) and no point
    of the box is unresolved (:mod:`.explore`); or the budget of model runs is spent;
 5. otherwise choose the next batch where the emulator's uncertainty matters most under the
-   posterior (:mod:`.acquisition`), one run at unresolved points, and go to 1.
+   posterior (:mod:`.acquisition`), one run at unresolved points (only runs there once the
+   rest of the rule holds), and go to 1.
 
 The returned :class:`~torchshm.inference.Posterior` has a mixture density fitted to a chain on
 the last emulator (``log_pdf``), draws and a log evidence by importance sampling from it
