@@ -18,6 +18,8 @@ from torchshm.inference.posterior import Posterior
 from torchshm.inference.tensorboard import RunTrace
 
 if TYPE_CHECKING:
+    from pyvbmc import VariationalPosterior
+
     from torchshm.problem import Problem
 
 logger = logging.getLogger("torchshm.inference.adaptive.method")
@@ -26,8 +28,8 @@ BEYOND_MARGIN = 0.05
 #: the stop rule runs the model past the runs while this share of the posterior draws lies at
 #: their edge or beyond it (:func:`edge_rows`); the check warns at this share beyond them
 EXTRAPOLATION_SHARE = 0.05
-#: importance sampling is made again from a mixture fitted to its own draws when its
-#: effective sample size is below this share of the draws
+#: importance sampling is tried again (the mixture widened more, or fitted to the first
+#: draws: :func:`posterior_draws`) when its effective sample size is below this share of them
 REFIT_SHARE = 0.25
 #: fewest effective importance samples from which the draws are resampled; below it the
 #: returned draws are the chain's (thinned) and the evidence is flagged
@@ -69,7 +71,8 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
     diagnostics = {
         "rounds": rounds, "n_rounds": len(rounds), "n_failed_evaluations": runs.n_failed,
         "n_reused_runs": extra["n_reused_runs"], "n_emulator_runs": int(runs.theta_p.shape[0]),
-        "evidence_ess": result.ess, "evidence_khat": result.khat, "posterior_draws": source, "n_walkers": extra["n_walkers"],
+        "evidence_ess": result.ess, "evidence_khat": result.khat, "posterior_draws": source,
+        "n_walkers": extra["n_walkers"],
         "wall_time_s": time.perf_counter() - extra["t0"],
         "final_cpu_time_s": time.process_time() - cpu,
         **beyond_runs(np.asarray(samples), list(problem.names), list(problem.physical_names),
@@ -88,12 +91,13 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
 
 def posterior_draws(log_joint: EmulatedLogJoint, chain: np.ndarray, hard: np.ndarray,
                     plausible: np.ndarray, n: int, seed: int,
-                    ) -> tuple[sampling.Importance, Any, str]:
+                    ) -> tuple[sampling.Importance, VariationalPosterior, str]:
     """Evidence, draws and stored density of the emulated posterior from its chain `S x D`.
 
     Importance sampling from the full-covariance mixture of the chain (:mod:`.mixture`),
     widened, and with slabs that carry each coordinate over the plausible box
-    (:meth:`.Mixture.with_slabs`); when its effective sample size is below :data:`REFIT_SHARE` of ``n``,
+    (:meth:`.Mixture.with_slabs`); when its effective sample size is below
+    :data:`REFIT_SHARE` of ``n``,
     again from the same mixture widened more (:data:`WIDE`: tails heavier than the mixture's,
     e.g. mass piled against a bound, which the unbounded coordinates stretch into a long tail)
     and from a mixture fitted to the first draws (which the weights moved to where the
