@@ -48,7 +48,7 @@ def test_posterior_and_evidence_match_the_analytic_answer(run: tuple) -> None:
     assert post.n_model_evaluations <= 15 + checked
     rounds = post.diagnostics["rounds"]
     assert sum(int(r["n_new_runs"]) for r in rounds) + checked == post.n_model_evaluations
-    assert len(rounds[0]["batch"]) == 10  # the initial design: two batches
+    assert len(rounds[0]["batch"]) == default_n_initial(2, 5) == 5  # the design: one batch
     assert all(len(r["batch"]) <= 5 for r in rounds[1:])
     assert all(r["cpu_time_s"] > 0 for r in rounds) and post.diagnostics["final_cpu_time_s"] > 0
 

@@ -234,14 +234,11 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             ext = (extrapolation_run(draws, extend, columns[0], runs.theta_p[:, columns[1]], hard)
                    if extend is not None else draws[:0])
             want -= ext.shape[0]
-            # exploration: one run, all but one once settled; once settled with nothing to
-            # extend, the batch is the exploration's alone (as many runs as it has points, up
-            # to the batch): posterior draws that the rule finds nothing to learn at would
-            # only fill the batch
+            # exploration: one run, all but one once settled, the whole batch once settled with
+            # nothing to extend (posterior draws with nothing to learn would only fill it)
             alone = settled and extend is None and scan.n_unresolved > 0
-            far = exploration_batch(scan, emulator, physical_columns(problem, scan.rows),
-                                    want if alone else min(want, max(1, want - 1) if settled else 1),
-                                    rng)
+            k = want if alone else min(want, max(1, want - 1) if settled else 1)
+            far = exploration_batch(scan, emulator, physical_columns(problem, scan.rows), k, rng)
             want = 0 if alone else want - far.shape[0]
             far = np.concatenate([far, ext])  # runs away from the posterior, checked apart
             batch, chosen = choose_batch(emulator, physical_columns(problem, draws), sd**2, want, rng)
