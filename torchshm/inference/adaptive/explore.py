@@ -20,8 +20,9 @@ Gaussian error exceeds once in 740): it might hold a mode. While any point is un
 run of each batch goes to the unresolved points (:func:`exploration_batch`; once the rest of the
 stop rule holds, the batch is theirs alone, one run per point up to the batch) and the stop rule
 does not hold, so a run that reaches its cap with an unresolved point says it did not converge.
-The best Sobol points also start the mode search, so a mode that an exploration run revealed gets walkers. A point within
-:data:`NEAR` draw sds of a one-mode posterior is its flank, not a mode (:func:`beyond_posterior`).
+The best Sobol points also start the mode search, so a mode that an exploration run revealed
+gets walkers. A point within :data:`NEAR` draw sds of a one-mode posterior is its flank, not a
+mode (:func:`beyond_posterior`).
 """
 
 from __future__ import annotations
