@@ -15,6 +15,7 @@ scaled to the unit box and outputs standardised, which suits any model.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -54,6 +55,19 @@ class FieldEmulator:
 
     surrogate: Surrogate
     theta_p: Tensor
+
+    @functools.cached_property
+    def error_basis(self) -> Tensor:
+        """`m x N` rows of unit length whose products are the correlations, across the runs,
+        of the `m = L n` outputs (the GP's standardised targets).
+
+        The emulator treats its outputs as independent, but its error at a new θp is a
+        smooth field, correlated across readings as the runs' fields are: the error of reading
+        `j` is modelled as ``sqrt(v_j) (B z)_j`` with `z` of `N` independent latent draws
+        (:meth:`EmulatedLogJoint.error_variance`).
+        """
+        targets = self.surrogate.gp.train_targets  # m x N
+        return targets / targets.norm(dim=-1, keepdim=True).clamp_min(1e-300)
 
     @classmethod
     def fit(cls, theta_p: np.ndarray, outputs: np.ndarray, x: Tensor, loads: Tensor,

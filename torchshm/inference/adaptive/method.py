@@ -10,10 +10,11 @@ The steps, one round at a time:
    emulator's variance (:mod:`.likelihood`, :mod:`.sampling`; no model run), the walkers first
    spread over the modes found by a multi-start search (:mod:`.modes`);
 4. check the stop rule: the total variation between this round's posterior and the previous
-   one's is below ``tv_tol`` in ``patience`` successive rounds, the emulator causes less
-   than ``sd_tol`` nats of log-likelihood uncertainty on average over the posterior, the
-   batch just run was predicted within ``check_tol`` nats (:mod:`.validation`) and no point
-   of the box is unresolved (:mod:`.explore`); or the budget of model runs is spent;
+   one's, or the one the emulator's uncertainty allows (:mod:`.witness`), is below ``tv_tol``
+   in ``patience`` successive rounds, the emulator causes less than ``sd_tol`` nats of
+   log-likelihood uncertainty on average over the posterior, the batch just run was predicted
+   within ``check_tol`` nats (:mod:`.validation`) and no point of the box is unresolved
+   (:mod:`.explore`); or the budget of model runs is spent;
 5. otherwise choose the next batch where the emulator's uncertainty matters most under the
    posterior (:mod:`.acquisition`), one run at unresolved points (only runs there once the
    rest of the rule holds), and go to 1.
@@ -45,6 +46,7 @@ from torchshm.inference.adaptive.final import (EXTRAPOLATION_SHARE, beyond_rows,
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, physical_columns
 from torchshm.inference.adaptive.runs import RunSet, run_batch
 from torchshm.inference.adaptive.validation import check_batch
+from torchshm.inference.adaptive.witness import tv_witness
 from torchshm.inference.posterior import Posterior
 from torchshm.inference.tensorboard import RunTrace, marginal_scalars
 
@@ -146,8 +148,8 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     previous: EmulatedLogJoint | None = None
     emulator: FieldEmulator | None = None
     prev_samples: np.ndarray | None = None
-    calm, converged, inflation, far_calibration, far = 0, False, 1.0, 1.0, np.zeros((0, dim))
-    checked = False
+    calm, converged, checked, inflation, far_calibration = 0, False, False, 1.0, 1.0
+    far = np.zeros((0, dim))
     columns = ([names.index(n) for n in problem.physical_names if n in names],
                [i for i, n in enumerate(problem.physical_names) if n in names])
     n_modes = 1
@@ -178,8 +180,8 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             steps = n_steps if r > 0 else 2 * n_steps
             scan = explore(log_joint, walkers[int(np.argmax(log_joint(walkers)))], columns[0],
                            plausible, rng, far_calibration)
-            walkers, n_modes, modes = _spread(log_joint, walkers, runs, columns, hard,
-                                              plausible, rng, scan.top)
+            walkers, n_modes, modes = mode_search.spread(log_joint, walkers, runs.theta_p, columns,
+                                                         hard, plausible, rng, scan.top)
             scan = with_modes(scan, log_joint, modes, far_calibration, sd_tol)
             samples, walkers = sampling.run_chain(log_joint, walkers, steps, seed + 1000 * r,
                                                   hop=n_modes > 1)
@@ -191,7 +193,9 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                   if previous is not None else 1.0)
             mmtv = sampling.marginal_tv(samples, prev_samples) if prev_samples is not None else 1.0
             share, sd = log_joint.emulator_share(draws)
-            calm = calm + 1 if tv < tv_tol else 0
+            witness = tv_witness(log_joint, draws, np.random.default_rng([seed, 37, r]))
+            # or the TV the emulator's own uncertainty allows, once a new batch tested it
+            calm = calm + 1 if tv < tv_tol or (check is not None and witness < tv_tol) else 0
             # a batch of exploration runs alone (below) leaves the last posterior check standing
             checked = (check.passed(check_tol) if check is not None
                        else checked and batch_rows is not None and not len(batch_rows))
@@ -207,7 +211,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             converged = settled and scan.n_unresolved == 0 and not extrapolating
             row = {"round": float(r), "n_runs": float(len(batch)), "n_new_runs": float(new),
                    "n_model_evaluations": float(runs.n_new), "n_emulator_runs":
-                   float(runs.theta_p.shape[0]), "tv": tv, "mmtv": mmtv,
+                   float(runs.theta_p.shape[0]), "tv": tv, "tv_witness": witness, "mmtv": mmtv,
                    "n_modes": float(n_modes), "emulator_share": float(share.mean()), "emulator_share_max": float(share.max()),
                    "emulator_loglik_sd": float(sd.mean()), "emulator_inflation": inflation,
                    "check_loglik_error": check.max_error if check is not None else np.nan,
@@ -257,23 +261,6 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
         "n_reused_runs": n_reused, "budget": budget, "t0": t0, "hard": hard,
         "plausible": plausible, "hop": n_modes > 1,
     })
-
-
-def _spread(log_joint: EmulatedLogJoint, walkers: np.ndarray, runs: RunSet,
-            columns: tuple[list[int], list[int]], hard: np.ndarray, plausible: np.ndarray,
-            rng: np.random.Generator, extra: np.ndarray) -> tuple[np.ndarray, int, np.ndarray]:
-    """The walkers spread over the modes of ``log_joint`` (:mod:`.modes`), the number of
-    modes that hold walkers and the modes `K x D`, best first; ``extra`` `E x D` more starts
-    of the mode search."""
-    starts = mode_search.starts_from(log_joint, walkers, runs.theta_p, columns, plausible, rng)
-    modes, values = mode_search.find_modes(log_joint, np.concatenate([starts, extra]), hard,
-                                           plausible)
-    if modes.shape[0] == 0:
-        return walkers, 1, modes
-    gap = sampling.straggler_gap(walkers.shape[1])
-    scale = plausible[:, 1] - plausible[:, 0]
-    walkers = mode_search.spread_walkers(walkers, modes, values, gap, scale, rng)
-    return walkers, max(1, int((values >= values.max() - gap).sum())), modes
 
 
 def default_n_initial(n_phys: int, batch_size: int) -> int:

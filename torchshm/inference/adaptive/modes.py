@@ -26,6 +26,8 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import minimize
 
+from torchshm.inference.adaptive.sampling import straggler_gap
+
 LogDensity = Callable[[np.ndarray], np.ndarray]
 
 #: nats below the lower of two optima that the segment between them must dip to count as
@@ -172,3 +174,18 @@ def starts_from(log_joint: LogDensity, walkers: np.ndarray, runs: np.ndarray,
         rows = rows[np.argsort(-np.where(np.isfinite(f), f, -np.inf))[:n_runs]]
     spread = plausible[:, 0] + rng.random((n_spread, plausible.shape[0])) * np.diff(plausible).T
     return np.concatenate([best[None], rows, spread])
+
+
+def spread(log_joint: LogDensity, walkers: np.ndarray, runs: np.ndarray,
+           columns: tuple[list[int], list[int]], hard: np.ndarray, plausible: np.ndarray,
+           rng: np.random.Generator, extra: np.ndarray) -> tuple[np.ndarray, int, np.ndarray]:
+    """The walkers `W x D` spread over the modes of ``log_joint`` found from the starts of
+    :func:`starts_from` (``runs`` `N x P` the runs' θp) and ``extra`` `E x D`; returns the
+    walkers, the number of modes that hold walkers and the modes `K x D`, best first."""
+    starts = starts_from(log_joint, walkers, runs, columns, plausible, rng)
+    modes, values = find_modes(log_joint, np.concatenate([starts, extra]), hard, plausible)
+    if modes.shape[0] == 0:
+        return walkers, 1, modes
+    gap = straggler_gap(walkers.shape[1])
+    walkers = spread_walkers(walkers, modes, values, gap, plausible[:, 1] - plausible[:, 0], rng)
+    return walkers, max(1, int((values >= values.max() - gap).sum())), modes
