@@ -16,8 +16,9 @@ The steps, one round at a time:
    within ``check_tol`` nats (:mod:`.validation`) and no point of the box is unresolved
    (:mod:`.explore`); or the budget of model runs is spent;
 5. otherwise choose the next batch where the emulator's uncertainty matters most under the
-   posterior (:mod:`.acquisition`), one run at unresolved points (only runs there once the
-   rest of the rule holds), and go to 1.
+   posterior (:mod:`.acquisition`), one run at unresolved points and, once the rest of the
+   rule holds, only the runs it still waits for (past the runs' range, unresolved points),
+   and go to 1.
 
 The returned :class:`~torchshm.inference.Posterior` has a mixture density fitted to a chain on
 the last emulator (``log_pdf``), draws and a log evidence by importance sampling from it
@@ -238,10 +239,11 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             ext = (extrapolation_run(draws, extend, columns[0], runs.theta_p[:, columns[1]], hard)
                    if extend is not None else draws[:0])
             want -= ext.shape[0]
-            # exploration: one run, all but one once settled, the whole batch once settled with
-            # nothing to extend (posterior draws with nothing to learn would only fill it)
-            alone = settled and extend is None and scan.n_unresolved > 0
-            k = want if alone else min(want, max(1, want - 1) if settled else 1)
+            # exploration: one run; once settled, the batch holds only the runs the rule waits
+            # for, the run past the runs and the exploration's (posterior draws with nothing
+            # to learn would only fill it)
+            alone = settled and (extend is not None or scan.n_unresolved > 0)
+            k = want if alone else 1
             far = exploration_batch(scan, emulator, physical_columns(problem, scan.rows), k, rng)
             want = 0 if alone else want - far.shape[0]
             far = np.concatenate([far, ext])  # runs away from the posterior, checked apart
