@@ -194,9 +194,10 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                   if previous is not None else 1.0)
             mmtv = sampling.marginal_tv(samples, prev_samples) if prev_samples is not None else 1.0
             share, sd = log_joint.emulator_share(draws)
-            witness = tv_witness(log_joint, draws, np.random.default_rng([seed, 37, r]))
             # or the TV the emulator's own uncertainty allows, once a new batch tested it
-            calm = calm + 1 if tv < tv_tol or (check is not None and witness < tv_tol) else 0
+            witness = (tv_witness(log_joint, draws, np.random.default_rng([seed, 37, r]))
+                       if check is not None and tv >= tv_tol else np.nan)
+            calm = calm + 1 if tv < tv_tol or witness < tv_tol else 0
             # a batch of exploration runs alone (below) leaves the last posterior check standing
             checked = (check.passed(check_tol) if check is not None
                        else checked and batch_rows is not None and not len(batch_rows))
