@@ -12,14 +12,16 @@ Each round therefore scores a scrambled Sobol set of :data:`N_SOBOL` points of t
 of the physical parameters (the other parameters those of the best walker) by
 ``z = (μ(x) - level) / s(x)``: ``μ`` the emulated log joint, ``level`` the best one less the
 straggler gap (:func:`.sampling.straggler_gap`), ``s`` the sd of the log-likelihood that the
-emulator error causes there (:meth:`EmulatedLogJoint.value_and_sd`, which holds far from the
-posterior too) times the emulator's record at earlier exploration runs
+emulator error causes there (:meth:`EmulatedLogJoint.value_and_sd`: the exact gradient of the
+likelihood, the error correlated across readings as the runs' fields are; it holds far from the
+posterior too) times the emulator's record at the last exploration runs
 (:func:`explore_calibration`). A point below the level is **unresolved** when ``z >= -κ``,
 κ = :data:`KAPPA` (a one-sided 3-sd upper confidence bound ``μ + κ s``, which a calibrated
 Gaussian error exceeds once in 740): it might hold a mode. While any point is unresolved, one
 run of each batch goes to the unresolved points (:func:`exploration_batch`; once the rest of the
-stop rule holds, the batch is theirs alone, one run per point up to the batch) and the stop rule
-does not hold, so a run that reaches its cap with an unresolved point says it did not converge.
+stop rule holds, the batch holds only the runs it waits for, one per point up to the batch) and
+the stop rule does not hold, so a run that reaches its cap with an unresolved point says it did
+not converge.
 The best Sobol points also start the mode search, so a mode that an exploration run revealed
 gets walkers. A point within :data:`NEAR` draw sds of a one-mode posterior is its flank, not a
 mode (:func:`beyond_posterior`).
