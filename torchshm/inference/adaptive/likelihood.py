@@ -134,11 +134,12 @@ class EmulatedLogJoint:
         with torch.enable_grad():
             values = blocks_log_likelihood(p.y, eta, p.blocks, p.kernel, sigma_a, length, sigma_m,
                                            method, var, sigma_e, STATE_SPACE_FROM)
-            finite = torch.isfinite(values)
-            (grad,) = torch.autograd.grad(torch.where(finite, values, 0.0).sum(), eta)
+            total = torch.where(torch.isfinite(values), values, 0.0).sum()
+            grad = (torch.autograd.grad(total, eta, allow_unused=True)[0]
+                    if total.requires_grad else None)  # a path that returned constants
         out = values.detach().numpy().copy()
         out[~np.isfinite(out)] = -np.inf
-        return out, grad
+        return out, torch.zeros_like(mean) if grad is None else grad
 
     def emulator_share(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """How much the emulator's uncertainty matters at rows ``theta`` `B x D`.
