@@ -128,6 +128,22 @@ def beam_problem(
     return Problem(model, meas, kernel=kernel, priors=paper_priors(), store=store)
 
 
+class WaveModel:
+    """Strains [µε] ``8 sin((2 + a) x) + 4 b² cos(x)`` at ``n`` points of [0, 3] m, one load:
+    a smooth nonlinear field of two parameters ``a``, ``b`` (for the emulator's error tests)."""
+
+    names = ["a", "b"]
+
+    def __init__(self, n: int = 25) -> None:
+        self.x = torch.linspace(0.0, 3.0, n, dtype=torch.float64)
+        self.loads = torch.tensor([0.0], dtype=torch.float64)
+
+    def __call__(self, theta_p: torch.Tensor) -> torch.Tensor:
+        t = torch.as_tensor(theta_p, dtype=torch.float64)
+        a, b = t[..., 0, None, None], t[..., 1, None, None]
+        return 8.0 * torch.sin((2.0 + a) * self.x) + 4.0 * b**2 * torch.cos(self.x)
+
+
 def linear_gaussian_problem(
     truth: tuple[float, ...] = (1.3, -0.7), prior_sd: float = 1.0, sigma_a: float = 0.3,
     sigma_e: float = 0.1, seed: int = 3, model: LinearModel | None = None, store: object = None,

@@ -12,31 +12,18 @@ import numpy as np
 import pytest
 import torch
 
+from inference_models import WaveModel
+
 from torchshm import Measurements, Problem, Uniform
 from torchshm.inference.adaptive.field import FieldEmulator
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint
-
-
-class Wave:
-    """Strains [µε] ``8 sin((2 + a) x) + 4 b² cos(x)`` at 40 points of [0, 3] m, one load."""
-
-    names = ["a", "b"]
-
-    def __init__(self) -> None:
-        self.x = torch.linspace(0.0, 3.0, 40, dtype=torch.float64)
-        self.loads = torch.tensor([0.0], dtype=torch.float64)
-
-    def __call__(self, theta_p: torch.Tensor) -> torch.Tensor:
-        t = torch.as_tensor(theta_p, dtype=torch.float64)
-        a, b = t[..., 0, None, None], t[..., 1, None, None]
-        return 8.0 * torch.sin((2.0 + a) * self.x) + 4.0 * b**2 * torch.cos(self.x)
 
 
 @pytest.mark.parametrize("kernel, sigma_a, length", [("squared_exponential", 2.0, 1.0),
                                                      ("independent", 0.5, None)])
 def test_sd_far_from_the_posterior_matches_a_monte_carlo(kernel: str, sigma_a: float,
                                                          length: float | None) -> None:
-    model = Wave()
+    model = WaveModel(40)
     rng = np.random.default_rng(0)
     y = model(torch.tensor([0.4, 0.6])).numpy() + 0.3 * rng.standard_normal((1, 40))
     priors = {"a": Uniform(0.0, 1.0), "b": Uniform(0.0, 1.0), "sigma_a": sigma_a}

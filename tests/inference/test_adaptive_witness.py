@@ -14,29 +14,16 @@ import numpy as np
 import pytest
 import torch
 
+from inference_models import WaveModel
+
 from torchshm import Measurements, Problem, Uniform
 from torchshm.inference.adaptive.field import FieldEmulator
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint
 from torchshm.inference.adaptive.witness import tv_witness
 
 
-class Wave:
-    """Strains [µε] ``8 sin((2 + a) x) + 4 b² cos(x)`` at 25 points of [0, 3] m, one load."""
-
-    names = ["a", "b"]
-
-    def __init__(self) -> None:
-        self.x = torch.linspace(0.0, 3.0, 25, dtype=torch.float64)
-        self.loads = torch.tensor([0.0], dtype=torch.float64)
-
-    def __call__(self, theta_p: torch.Tensor) -> torch.Tensor:
-        t = torch.as_tensor(theta_p, dtype=torch.float64)
-        a, b = t[..., 0, None, None], t[..., 1, None, None]
-        return 8.0 * torch.sin((2.0 + a) * self.x) + 4.0 * b**2 * torch.cos(self.x)
-
-
 def _setup(n_runs: int) -> tuple[EmulatedLogJoint, np.ndarray]:
-    model = Wave()
+    model = WaveModel()
     rng = np.random.default_rng(0)
     y = model(torch.tensor([0.4, 0.6])).numpy() + 0.5 * rng.standard_normal((1, 25))
     problem = Problem(model, Measurements(model.x.numpy(), y, model.loads.numpy(), sigma_e=0.1),
