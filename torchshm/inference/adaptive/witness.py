@@ -14,7 +14,9 @@ kernel and campaign) and ``c`` the emulator's calibration. Each joint draw of Δ
 posterior draws reweights the posterior; the **witness** is the mean total variation between
 the posterior and its reweightings, ``E_Δ ½ E_p |1 - e^Δ / E_p e^Δ|``: the total variation to
 expect between this round's posterior and the next one's if the emulator's errors are as large
-as it says (the batch check of :mod:`.validation` tests that they are).
+as it says (the batch check of :mod:`.validation` tests that they are). It is the larger of
+this and the same with the error correlated across readings as the runs' fields are
+(:meth:`EmulatedLogJoint.error_variance`).
 """
 
 from __future__ import annotations
@@ -23,6 +25,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
+
+from torchshm.inference.adaptive.sampling import total_variation
 
 if TYPE_CHECKING:
     from torchshm.inference.adaptive.likelihood import EmulatedLogJoint
@@ -48,28 +52,25 @@ def tv_witness(log_joint: EmulatedLogJoint, draws: np.ndarray, rng: np.random.Ge
     Returns:
         The witness in [0, 1] (module docstring); 1 when it cannot be computed.
     """
-    p = log_joint.problem
-    rows = torch.as_tensor(np.atleast_2d(draws)[:N_DRAWS], dtype=torch.float64)
+    rows = np.atleast_2d(draws)[:N_DRAWS]
     if rows.shape[0] < 2:
         return 1.0
-    theta_p = p.split.physical(rows)
+    mean, var, theta = log_joint.parts(rows)  # var: the calibrated (inflated) variance
     emulator = log_joint.emulator
-    mean, var = emulator.predict(theta_p)
-    latent = emulator.latent_covariance(theta_p, theta_p)
+    latent = emulator.latent_covariance(*(log_joint.problem.split.physical(theta),) * 2)
     scale = (var / latent.diagonal().clamp_min(1e-300)[:, None, None]).sqrt()
-    _, gradient = log_joint.gradient(mean, var * log_joint.inflation, rows)
+    _, gradient = log_joint.gradient(mean, var, theta)
     g = (torch.nan_to_num(gradient * scale) * log_joint.valid.to(scale.dtype)).flatten(1)
     z = torch.as_tensor(rng.standard_normal((rows.shape[0], int(n_fields))))
     # the outputs' errors independent (as the emulator has them) and correlated as the runs'
     # fields are (as they come out, :meth:`EmulatedLogJoint.error_variance`): the larger TV
-    values = [_mean_tv(log_joint.inflation * latent * (u @ u.mT), z)
-              for u in (g, g @ emulator.error_basis)]
-    return max(values)
+    return max(_mean_tv(latent * (u @ u.mT), z) for u in (g, g @ emulator.error_basis))
 
 
 def _mean_tv(cov: torch.Tensor, z: torch.Tensor) -> float:
-    """Mean TV between the posterior (its draws uniform) and its reweightings by `F` draws
-    ``Δ ~ N(0, cov)`` (`S x S`), from standard normal `S x F` ``z``."""
+    """Mean TV (:func:`.sampling.total_variation`) between the posterior (its draws uniform)
+    and its reweightings by `F` draws ``Δ ~ N(0, cov)`` (`S x S`), from standard normal
+    `S x F` ``z``."""
     top = float(cov.diagonal().max())
     if not np.isfinite(top):
         return 1.0
@@ -83,6 +84,5 @@ def _mean_tv(cov: torch.Tensor, z: torch.Tensor) -> float:
     delta = ((v * (top * w.clamp_min(0.0)).sqrt()) @ z).mT.numpy()  # F x S
     if not np.isfinite(delta).all():
         return 1.0
-    weights = np.exp(delta - delta.max(-1, keepdims=True))
-    weights /= weights.mean(-1, keepdims=True)
-    return float(np.clip(0.5 * np.abs(1.0 - weights).mean(-1).mean(), 0.0, 1.0))
+    zero = np.zeros(delta.shape[1])
+    return float(np.mean([total_variation(zero, d) for d in delta]))
