@@ -6,7 +6,7 @@ The public names below (see ``docs/api.md``: signatures and examples) are import
 
 from __future__ import annotations
 
-from torchshm._lazy import lazy_getattr
+from torchshm._lazy import lazy_dir, lazy_getattr
 
 __version__ = "0.1.0"
 
@@ -51,7 +51,4 @@ __all__ = sorted(_EXPORTS)
 
 
 __getattr__ = lazy_getattr("torchshm", _EXPORTS, globals())
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__dir__ = lazy_dir(_EXPORTS, globals())

@@ -30,4 +30,14 @@ def lazy_getattr(package: str, exports: dict[str, str], namespace: dict[str, Any
     return __getattr__
 
 
-__all__ = ["lazy_getattr"]
+def lazy_dir(exports: dict[str, str], namespace: dict[str, Any]) -> Callable[[], list[str]]:
+    """The module ``__dir__`` of a package with lazy ``exports``: its loaded names and every
+    export, sorted (``namespace``: the package's ``globals()``)."""
+
+    def __dir__() -> list[str]:
+        return sorted(set(namespace) | set(exports))
+
+    return __dir__
+
+
+__all__ = ["lazy_dir", "lazy_getattr"]

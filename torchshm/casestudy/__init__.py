@@ -11,7 +11,7 @@ names are imported lazily, so that the frame model does not load the surrogate's
 
 from __future__ import annotations
 
-from torchshm._lazy import lazy_getattr
+from torchshm._lazy import lazy_dir, lazy_getattr
 
 #: public name -> module of this package that defines it
 _EXPORTS: dict[str, str] = {
@@ -38,7 +38,4 @@ __all__ = sorted(_EXPORTS)
 
 
 __getattr__ = lazy_getattr("torchshm.casestudy", _EXPORTS, globals(), prefix="torchshm.casestudy.")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__dir__ = lazy_dir(_EXPORTS, globals())
