@@ -112,25 +112,6 @@ def test_batch_rule_spreads_the_points() -> None:
     assert dist.min() > 0.05  # no two runs on top of each other or of the design
 
 
-def test_batch_rule_makes_only_runs_that_move_the_posterior() -> None:
-    """Below ``min_gain`` (nats², averaged over the candidates) a run is not made, but the
-    ``at_least`` first ones are (the next round's check of the emulator)."""
-    x = torch.linspace(0, 1, 20, dtype=torch.float64)
-    theta = np.array([[0.0], [0.5], [1.0], [0.25]])
-    emulator = FieldEmulator.fit(theta, np.sin(3 * theta[:, :, None] * x.numpy()[None, None, :]),
-                                 x, torch.tensor([1.0]))
-    cand = np.linspace(0, 1, 401)[:, None]
-    variance = np.diag(emulator.latent_covariance(*(torch.as_tensor(cand),) * 2).numpy())
-    rng = np.random.default_rng(0)
-    scale = 1.0 / variance.mean()  # the candidates' mean utility: 1 nat² before any run
-    full, _ = choose_batch(emulator, cand, scale * variance, 4, rng, min_gain=0.01, at_least=2)
-    assert full.shape == (4, 1)  # every run removes far more than 0.01 nats² here
-    lean, _ = choose_batch(emulator, cand, 1e-4 * scale * variance, 4, rng, min_gain=0.01, at_least=2)
-    assert lean.shape == (2, 1)  # a mean utility of 1e-4 nats²: only the check's two
-    same, _ = choose_batch(emulator, cand, 1e-4 * scale * variance, 4, rng)
-    assert same.shape == (4, 1)  # without a floor the batch is filled
-
-
 def test_emulated_log_joint_is_exact_where_the_emulator_is_exact() -> None:
     problem = linear_gaussian_problem()
     theta = np.array([[1.0, -1.0], [-1.0, 1.0], [1.0, 1.0], [-1.0, -1.0], [0.0, 0.0]])

@@ -10,13 +10,6 @@ condition the GP's covariance on a run there (the variance after a run does not 
 result, so this "kriging believer" step is exact), scale every ``u_i`` by its variance
 reduction, and repeat. Runs near one already chosen thus lose their value, which spreads the
 batch.
-
-A run is only worth making while it teaches the emulator something the posterior feels: the
-greedy picks stop, once :data:`CHECK_RUNS` are chosen (the next round's check of the emulator,
-:mod:`.validation`), at the first one that would remove less than :data:`MIN_GAIN` of the
-posterior-averaged log-likelihood variance. An error of sd ``s`` nats, independent across
-draws, reweights the posterior by a total variation of about ``0.4 s`` (``½ E|ε|``), so a run
-removing less than ``0.1²`` nats² moves it by less than the stop rule's tolerance of 0.05.
 """
 
 from __future__ import annotations
@@ -28,30 +21,22 @@ from torchshm.inference.adaptive.field import FieldEmulator
 
 #: largest number of candidates scored per batch (a random subset of the draws beyond)
 MAX_CANDIDATES = 1500
-#: smallest posterior-averaged log-likelihood variance [nats²] a run must remove to be made
-MIN_GAIN = 0.01
-#: posterior runs a batch keeps whatever their gain: the next round's check of the emulator
-CHECK_RUNS = 2
 
 
 def choose_batch(emulator: FieldEmulator, theta_p: np.ndarray, utility: np.ndarray,
-                 batch_size: int, rng: np.random.Generator, min_gain: float = 0.0,
-                 at_least: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """A batch of up to ``batch_size`` distinct θp among candidates ``theta_p`` `C x P`.
+                 batch_size: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """A batch of ``batch_size`` distinct θp among candidates ``theta_p`` `C x P`.
 
     Args:
         emulator: the current field emulator.
         theta_p: candidate physical parameters (posterior draws).
         utility: `C` utility of each candidate (the emulated log-likelihood variance).
-        batch_size: largest number of runs to choose.
+        batch_size: number of runs to choose.
         rng: generator for the candidate subset.
-        min_gain: once ``at_least`` runs are chosen, stop at the first whose gain, the utility it
-            removes averaged over the candidates, is below this (0: fill the batch).
-        at_least: runs chosen whatever their gain (while any is positive).
 
     Returns:
-        ``(batch, index)``: `b x P` chosen θp (b <= batch_size: fewer when candidates run out
-        or the gains fall below ``min_gain``) and their `b` row indices in ``theta_p``.
+        ``(batch, index)``: `b x P` chosen θp (b <= batch_size: fewer when candidates run out)
+        and their `b` row indices in ``theta_p``.
     """
     theta_p = np.asarray(theta_p, dtype=np.float64)
     keep = np.arange(theta_p.shape[0])
@@ -72,8 +57,6 @@ def choose_batch(emulator: FieldEmulator, theta_p: np.ndarray, utility: np.ndarr
         score[chosen] = -np.inf
         best = int(np.argmax(score))
         if not np.isfinite(score[best]) or score[best] <= 0:
-            break
-        if len(chosen) >= at_least and score[best] < min_gain * util.shape[0]:
             break
         chosen.append(best)
         gains.append(float(score[best]))

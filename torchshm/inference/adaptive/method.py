@@ -16,9 +16,9 @@ The steps, one round at a time:
    within ``check_tol`` nats (:mod:`.validation`) and no point of the box is unresolved
    (:mod:`.explore`); or the budget of model runs is spent;
 5. otherwise choose the next batch where the emulator's uncertainty matters most under the
-   posterior (:mod:`.acquisition`: only runs that would move it, at least two to check the
-   emulator), one run at unresolved points and, once the rest of the rule holds, only the
-   runs it still waits for (past the runs' range, unresolved points), and go to 1.
+   posterior (:mod:`.acquisition`), one run at unresolved points and, once the rest of the
+   rule holds, only the runs it still waits for (past the runs' range, unresolved points),
+   and go to 1.
 
 The returned :class:`~torchshm.inference.Posterior` has a mixture density fitted to a chain on
 the last emulator (``log_pdf``), draws and a log evidence by importance sampling from it
@@ -38,7 +38,7 @@ import torch
 from torchshm.inference.adaptive import cost
 from torchshm.inference.adaptive import modes as mode_search
 from torchshm.inference.adaptive import sampling
-from torchshm.inference.adaptive.acquisition import CHECK_RUNS, MIN_GAIN, choose_batch, design
+from torchshm.inference.adaptive.acquisition import choose_batch, design
 from torchshm.inference.adaptive.explore import (beyond_posterior, explore, explore_calibration,
                                                   exploration_batch, with_modes)
 from torchshm.inference.adaptive.field import FieldEmulator, model_transform
@@ -248,12 +248,8 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             far = exploration_batch(scan, emulator, physical_columns(problem, scan.rows), k, rng)
             want = 0 if alone else want - far.shape[0]
             far = np.concatenate([far, ext])  # runs away from the posterior, checked apart
-            # posterior runs while they teach the emulator what the posterior feels, and at least
-            # CHECK_RUNS for the next check (random draws when there is nothing left to learn)
-            batch, chosen = choose_batch(emulator, physical_columns(problem, draws), sd**2, want,
-                                         rng, MIN_GAIN, CHECK_RUNS)
-            want = min(want, max(len(chosen), CHECK_RUNS))
-            if len(chosen) < want:
+            batch, chosen = choose_batch(emulator, physical_columns(problem, draws), sd**2, want, rng)
+            if len(chosen) < want:  # nothing left to learn by the rule: test at random draws
                 extra = rng.choice(np.setdiff1d(np.arange(draws.shape[0]), chosen),
                                    want - len(chosen), replace=False)
                 chosen = np.concatenate([chosen, extra])
