@@ -41,7 +41,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.cases import case_hash, make_problem  # noqa: E402
 from benchmarks.catalog import CASES  # noqa: E402
-from benchmarks.holdout import HOLDOUT, KNOWN  # noqa: E402
+from benchmarks.holdout import FRESH, HOLDOUT, KNOWN  # noqa: E402
 from benchmarks.methods import TimedModel, run_method  # noqa: E402
 
 REFS = ROOT / "benchmarks" / "references"
@@ -49,6 +49,8 @@ DOC = ROOT / "docs" / "benchmarks.md"
 BEGIN, END = "<!-- suite:begin -->", "<!-- suite:end -->"
 #: the held-out cases' table (``--holdout``) has markers and a section of its own
 HOLDOUT_MARKS = ("<!-- holdout:begin -->", "<!-- holdout:end -->")
+#: and the second held-out set's (``--fresh``)
+FRESH_MARKS = ("<!-- fresh:begin -->", "<!-- fresh:end -->")
 METHODS = ("emulator", "vbmc", "gpry")
 #: the cases GPry runs on by default: the 2- and 4-parameter ones (see docs/benchmarks.md)
 GPRY_CASES = [name for name, case in CASES.items() if case.n_physical in (2, 4)]
@@ -226,6 +228,8 @@ def main() -> None:
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(KNOWN))
     parser.add_argument("--holdout", action="store_true", help="the held-out cases (benchmarks/holdout.py) "
                         "instead of the suite's; their table goes to its own section of docs/benchmarks.md")
+    parser.add_argument("--fresh", action="store_true", help="the second held-out set (benchmarks/holdout.py "
+                        "FRESH), drawn after the methods' defaults were fixed; its own section of docs/benchmarks.md")
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=[*METHODS, "emcee"])
     parser.add_argument("--gpry-cases", nargs="+", default=GPRY_CASES, choices=list(KNOWN),
                         help="the cases GPry runs on (default: the 2- and 4-parameter ones; minutes of CPU each)")
@@ -241,6 +245,8 @@ def main() -> None:
     args = parser.parse_args()
     if args.holdout:
         args.cases = [c for c in args.cases if c in HOLDOUT] or list(HOLDOUT)
+    if args.fresh:
+        args.cases = [c for c in args.cases if c in FRESH] or list(FRESH)
     if os.environ.get("TORCHSHM_SMOKE") == "1":  # a check that it runs (docs test), no figures
         args.cases, args.methods, args.quick, args.no_docs = args.cases[:1], args.methods[:1], True, True
         print(f"TORCHSHM_SMOKE=1: --quick, {args.cases} with {args.methods} only, docs/benchmarks.md left as it is")
@@ -264,12 +270,13 @@ def main() -> None:
         save(rows)
     order = {c: i for i, c in enumerate(KNOWN)}
     rows.sort(key=lambda r: (order[r["case"]], [*METHODS, "emcee"].index(r["method"])))
-    holdout = all(r["case"] in HOLDOUT for r in rows)
-    marks = HOLDOUT_MARKS if holdout else (BEGIN, END)
+    holdout, fresh = all(r["case"] in HOLDOUT for r in rows), all(r["case"] in FRESH for r in rows)
+    marks = HOLDOUT_MARKS if holdout else FRESH_MARKS if fresh else (BEGIN, END)
     section = table(rows, header(meta, len(args.rescore or [None])), marks)
     print(section)
     if not args.no_docs:
         write_doc(section, marks, "Held-out cases (`scripts/bench_identification.py --holdout`)" if holdout
+                  else "A second held-out set (`scripts/bench_identification.py --fresh`)" if fresh
                   else "Identification suite (`scripts/bench_identification.py`)")
 
 

@@ -13,6 +13,7 @@ Usage (from the repository root)::
     OMP_NUM_THREADS=1 python scripts/make_references.py --all
     OMP_NUM_THREADS=1 python scripts/make_references.py --case beam2_saturating --case plate2_field
     OMP_NUM_THREADS=1 python scripts/make_references.py --holdout  # the held-out cases
+    OMP_NUM_THREADS=1 python scripts/make_references.py --fresh  # the second held-out set
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.cases import Case, case_hash, make_problem, truth_vector  # noqa: E402
 from benchmarks.catalog import CASES  # noqa: E402
-from benchmarks.holdout import HOLDOUT, KNOWN  # noqa: E402
+from benchmarks.holdout import FRESH, HOLDOUT, KNOWN  # noqa: E402
 from benchmarks.reference import direct_log_joint, find_modes, importance, run_chain  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "references"
@@ -120,6 +121,7 @@ def main() -> None:
     parser.add_argument("--case", action="append", default=[], choices=list(KNOWN))
     parser.add_argument("--all", action="store_true", help="every case of the suite")
     parser.add_argument("--holdout", action="store_true", help="every held-out case (benchmarks/holdout.py)")
+    parser.add_argument("--fresh", action="store_true", help="every case of the second held-out set (FRESH)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--rehash", action="store_true", help="only renew the definition hash of existing "
                         "references whose problem is unchanged (same log joint at their MAP, to 1e-3 nats)")
@@ -127,10 +129,12 @@ def main() -> None:
     torch.set_num_threads(1)
     OUT.mkdir(parents=True, exist_ok=True)
     if args.rehash:
-        for name in (list(CASES) if args.all else list(HOLDOUT) if args.holdout else args.case):
+        for name in (list(CASES) if args.all else list(HOLDOUT) if args.holdout else list(FRESH) if args.fresh
+                                       else args.case):
             rehash(name)
         return
-    names, out, budget = (list(CASES) if args.all else list(HOLDOUT) if args.holdout else args.case), OUT, {}
+    names, out, budget = (list(CASES) if args.all else list(HOLDOUT) if args.holdout else list(FRESH) if args.fresh
+                                       else args.case), OUT, {}
     if SMOKE:  # written beside the references, never over them
         names, out, budget = names[:1], OUT / "smoke", {"n_importance": 500, "max_steps": 500}
         out.mkdir(exist_ok=True)

@@ -33,3 +33,19 @@ def test_held_out_cases_are_new_problems_of_every_dimension() -> None:
         for name, value in case.truth.items():  # truths inside the plausible box
             low, high = case.priors[name].plausible_bounds
             assert low < value < high
+
+
+def test_the_second_set_is_new_and_holds_plates_and_six_parameters() -> None:
+    from benchmarks.holdout import FRESH, FRESH_SEED, N_FRESH, generate_fresh
+
+    again = generate_fresh(FRESH_SEED, N_FRESH)
+    assert [(c.name, c.truth, c.kernel) for c in again.values()] == [(c.name, c.truth, c.kernel) for c in FRESH.values()]
+    assert not set(FRESH) & (set(CASES) | set(HOLDOUT))
+    assert {c.n_physical for c in FRESH.values()} == {2, 3, 4, 6}
+    assert any(c.model().x.ndim == 2 for c in FRESH.values())  # a plate's field (n x 2)
+    for case in FRESH.values():
+        problem = make_problem(case)
+        assert np.isfinite(float(problem.log_joint(truth_vector(case, list(problem.names)))))
+        for name, value in case.truth.items():
+            low, high = case.priors[name].plausible_bounds
+            assert low < value < high
