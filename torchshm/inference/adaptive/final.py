@@ -65,8 +65,8 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
             f"log-likelihood sd {rounds[-1]['emulator_loglik_sd']:.3f} nats, last batch off by "
             f"{rounds[-1]['check_loglik_error']:.3g} nats, {rounds[-1]['n_unresolved']:.0f} "
             f"unresolved points of the box, {rounds[-1]['beyond_runs']:.0%} of the draws beyond "
-            "the runs); the posterior may still move and "
-            "is widened by the emulator's own uncertainty: raise max_model_evaluations",
+            "the runs); the posterior is the emulator mean's and may still move by what the "
+            "emulator does not know yet: raise max_model_evaluations",
             RuntimeWarning, stacklevel=3)
     diagnostics = {
         "rounds": rounds, "n_rounds": len(rounds), "n_failed_evaluations": runs.n_failed,

@@ -1,13 +1,16 @@
-"""The log joint on the field emulator, carrying the emulator's own uncertainty.
+"""The log joint on the field emulator, and the log-likelihood error its uncertainty causes.
 
 For a parameter vector θ = (θp, σa, l[, σm, σe]) the emulator gives the strains' mean m(θp) and
-variance v_j(θp) at every measured reading j. The likelihood is Eq. (21) with ``eta = m`` and
-``c · v_j`` added to each reading's variance: the exact marginal over a Gaussian emulator
-error when σm = 0, and a close one otherwise. ``c >= 1`` is the emulator's calibration (how
-much larger its errors at new runs were than it predicted, :mod:`.validation`), so the
-posterior is never more confident than the emulator's record allows. Once the emulator is
-accurate where the posterior lies (the stop rule asks for it), the added variance is
-negligible and the likelihood is Eq. (21) itself.
+variance v_j(θp) at every measured reading j. The posterior's likelihood is Eq. (21) with
+``eta = m`` (plug-in). The variance is not added to each reading's variance: that would be the
+exact marginal over the emulator's error only if the error were independent from reading to
+reading, while it is a smooth field that the discrepancy absorbs; added per reading it penalised
+every region where the emulator is uncertain (about ``½ Σ_j [log(1 + v_j/s_j²) - v_j/(s_j² + v_j)]``
+nats) and cut the posterior there (``docs/inference.md`` step 3). The variance, times the
+calibration ``c >= 1`` (how much larger the errors at new runs were than predicted,
+:mod:`.validation`), gives instead the log-likelihood sd the emulator causes
+(:meth:`EmulatedLogJoint.value_and_sd`, :meth:`EmulatedLogJoint.error_variance`), which the stop
+rule, the exploration and the batch rule use.
 
 The data are seen only through the problem's one view of them: ``problem.at_measured`` (the
 measured load cases and positions, exact or interpolated), ``problem.blocks`` (one independent
@@ -73,9 +76,10 @@ class EmulatedLogJoint:
         return out
 
     def log_likelihood(self, theta: np.ndarray) -> np.ndarray:
-        """Emulated log-likelihood `B` of rows `B x D` inside the support."""
-        mean, var, rows = self.parts(theta)
-        return self.at(mean, var, rows)
+        """Emulated log-likelihood `B` of rows `B x D` inside the support: Eq. (21) at the
+        emulator's mean (module docstring)."""
+        mean, _, rows = self.parts(theta)
+        return self.at(mean, None, rows)
 
     def at(self, mean: Tensor, var: Tensor | None, rows: Tensor) -> np.ndarray:
         """Eq. (21) log-likelihood `B` of predictions ``mean`` `B x L x n` with the extra

@@ -6,8 +6,8 @@ The steps, one round at a time:
    hypercube of ``n_initial`` points in the plausible box; runs already in the store, e.g. of
    another kernel or resolution, are used too);
 2. fit the field emulator of the measured strains over θp (:mod:`.field`);
-3. sample the posterior of all parameters on the emulated likelihood, which carries the
-   emulator's variance (:mod:`.likelihood`, :mod:`.sampling`; no model run), the walkers first
+3. sample the posterior of all parameters on the emulated likelihood, Eq. (21) at the
+   emulator's mean (:mod:`.likelihood`, :mod:`.sampling`; no model run), the walkers first
    spread over the modes found by a multi-start search (:mod:`.modes`);
 4. check the stop rule: the total variation between this round's posterior and the previous
    one's, or the one the emulator's uncertainty allows (:mod:`.witness`), is below ``tv_tol``
