@@ -76,6 +76,17 @@ def _roles(rng: np.random.Generator, supports: tuple[float, ...], n_phys: int, o
     return roles, truth, priors
 
 
+def _discrepancy_priors(rng: np.random.Generator, priors: dict[str, object], length: float,
+                        top: float) -> bool:
+    """Gamma priors on ``sigma_a`` and ``length`` (its mean near the true ``length`` [m]),
+    bounded (``length`` by ``top``) or not, a coin's choice; added to ``priors``; whether bounded."""
+    bounded = bool(rng.random() < 0.5)
+    priors["sigma_a"] = G(2.0, 1.0, bounds=(0.0, 10.0)) if bounded else G(2.0, 1.0)
+    mean_l = float(f"{length * np.exp(rng.normal(0.0, 0.3)):.2g}")
+    priors["length"] = G(2.0, 2.0 / mean_l, bounds=(0.0, top)) if bounded else G(2.0, 2.0 / mean_l)
+    return bounded
+
+
 def _case(rng: np.random.Generator, index: int, n_phys: int | None = None, prefix: str = "holdout") -> Case:
     n_spans = int(rng.integers(1, 4))
     spans = [float(np.round(rng.uniform(12.0, 24.0) * 2) / 2) for _ in range(n_spans)]
@@ -94,10 +105,7 @@ def _case(rng: np.random.Generator, index: int, n_phys: int | None = None, prefi
     kernel = str(rng.choice(KERNELS))
     sigma_a = float(f"{np.exp(rng.uniform(np.log(0.3), np.log(3.0))):.2g}")
     length = float(f"{rng.uniform(1.0, 4.0):.2g}")
-    bounded = bool(rng.random() < 0.5)
-    priors["sigma_a"] = G(2.0, 1.0, bounds=(0.0, 10.0)) if bounded else G(2.0, 1.0)
-    mean_l = float(f"{length * np.exp(rng.normal(0.0, 0.3)):.2g}")
-    priors["length"] = G(2.0, 2.0 / mean_l, bounds=(0.0, 20.0)) if bounded else G(2.0, 2.0 / mean_l)
+    bounded = _discrepancy_priors(rng, priors, length, top=20.0)
     quiet = bool(rng.random() < 0.2)  # data less noisy than the default sigma_m = 0.05
     name = f"{prefix}{index}_p{len(truth)}"
     features = (f"{n_spans} span(s), {len(loads)} {'point load' if spec.point_loads else 'truck'} case(s), "
@@ -124,10 +132,7 @@ def _plate(rng: np.random.Generator, index: int, prefix: str) -> Case:
     kernel = str(rng.choice(KERNELS))
     sigma_a = float(f"{np.exp(rng.uniform(np.log(0.2), np.log(2.0))):.2g}")
     length = float(f"{b * rng.uniform(0.1, 0.5):.2g}")
-    bounded = bool(rng.random() < 0.5)
-    priors["sigma_a"] = G(2.0, 1.0, bounds=(0.0, 10.0)) if bounded else G(2.0, 1.0)
-    mean_l = float(f"{length * np.exp(rng.normal(0.0, 0.3)):.2g}")
-    priors["length"] = G(2.0, 2.0 / mean_l, bounds=(0.0, 3.0 * a)) if bounded else G(2.0, 2.0 / mean_l)
+    bounded = _discrepancy_priors(rng, priors, length, top=3.0 * a)
     quiet = bool(rng.random() < 0.2)
     name = f"{prefix}{index}_p2"
     features = (f"plate {a} x {b} m, t {thickness} m, DIC field {grid[0]} x {grid[1]}, {len(loads)} patch "
