@@ -39,9 +39,19 @@ def tiny_chunks(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 @pytest.mark.parametrize("name", list(CASES))
-def test_same_numbers_as_before_chunking(name: str, tiny_chunks: None) -> None:
-    """21 to 50 draws in chunks of 16 (the last one 16 to 31): the recorded numbers."""
-    np.testing.assert_allclose(fingerprint(CASES[name]()), RECORDED[name], rtol=1e-10, atol=1e-9)
+def test_same_numbers_as_before_chunking(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """21 to 50 draws in chunks of 16 (the last one 16 to 31) give the numbers of one chunk of
+    all the draws, in the same process, to round-off; and the numbers recorded before chunking
+    to 1e-4 (relative): the emulator's fit, an optimisation, moves them by up to 7e-6 between
+    machines."""
+    monkeypatch.setattr(chunks, "CHUNK_BYTES", 1 << 40)
+    monkeypatch.setattr(draws, "SUMMARY_CHUNK_BYTES", 1 << 40)
+    whole = fingerprint(CASES[name]())
+    monkeypatch.setattr(chunks, "CHUNK_BYTES", 1)
+    monkeypatch.setattr(draws, "SUMMARY_CHUNK_BYTES", 1)
+    parts = fingerprint(CASES[name]())
+    np.testing.assert_allclose(parts, whole, rtol=1e-10, atol=1e-9)
+    np.testing.assert_allclose(parts, RECORDED[name], rtol=1e-4, atol=1e-6)
 
 
 def test_summary_keeps_float32_draws_with_the_same_summary(tiny_chunks: None) -> None:

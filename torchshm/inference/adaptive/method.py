@@ -238,13 +238,13 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             want = min(batch_size, left)
             # one run past the runs' range, where the emulator extends what it saw
             ext = (extrapolation_run(draws, extend, columns[0], runs.theta_p[:, columns[1]], hard)
-                   if extend is not None else draws[:0])
+                   if extend is not None else draws[:0])[:want]  # never past the cap
             want -= ext.shape[0]
             # exploration: one run; once settled, the batch holds only the runs the rule waits
             # for, the run past the runs and the exploration's (posterior draws with nothing
             # to learn would only fill it)
             alone = settled and (extend is not None or scan.n_unresolved > 0)
-            k = want if alone else 1
+            k = want if alone else min(1, want)
             far = exploration_batch(scan, emulator, physical_columns(problem, scan.rows), k, rng)
             want = 0 if alone else want - far.shape[0]
             far = np.concatenate([far, ext])  # runs away from the posterior, checked apart
