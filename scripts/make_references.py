@@ -116,6 +116,13 @@ def rehash(name: str) -> None:
     print(f"{name}: unchanged, hash {ref['case_hash']}")
 
 
+def _names(args: argparse.Namespace) -> list[str]:
+    """The cases the command line names: a whole set (``--all``, ``--holdout``, ``--fresh``) or
+    the ``--case`` ones."""
+    return (list(CASES) if args.all else list(HOLDOUT) if args.holdout else list(FRESH) if args.fresh
+            else list(args.case))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--case", action="append", default=[], choices=list(KNOWN))
@@ -129,12 +136,10 @@ def main() -> None:
     torch.set_num_threads(1)
     OUT.mkdir(parents=True, exist_ok=True)
     if args.rehash:
-        for name in (list(CASES) if args.all else list(HOLDOUT) if args.holdout else list(FRESH) if args.fresh
-                                       else args.case):
+        for name in _names(args):
             rehash(name)
         return
-    names, out, budget = (list(CASES) if args.all else list(HOLDOUT) if args.holdout else list(FRESH) if args.fresh
-                                       else args.case), OUT, {}
+    names, out, budget = _names(args), OUT, {}
     if SMOKE:  # written beside the references, never over them
         names, out, budget = names[:1], OUT / "smoke", {"n_importance": 500, "max_steps": 500}
         out.mkdir(exist_ok=True)
