@@ -99,6 +99,11 @@ class FieldEmulator:
         assert var is not None
         return mean, var.clamp_min(0.0)
 
+    def predict_mean(self, theta_p: Tensor) -> Tensor:
+        """Mean [µε] of the strains `B x L x n` at `B x P`, without the variance's solves."""
+        with torch.no_grad():
+            return self.surrogate.predict(theta_p, variance=False)[0]
+
     def latent_covariance(self, a: Tensor, b: Tensor) -> Tensor:
         """Posterior covariance `A x B` of the shared latent GP between θp sets `A x P`, `B x P`.
 

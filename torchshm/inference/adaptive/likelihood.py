@@ -77,9 +77,9 @@ class EmulatedLogJoint:
 
     def log_likelihood(self, theta: np.ndarray) -> np.ndarray:
         """Emulated log-likelihood `B` of rows `B x D` inside the support: Eq. (21) at the
-        emulator's mean (module docstring)."""
-        mean, _, rows = self.parts(theta)
-        return self.at(mean, None, rows)
+        emulator's mean (module docstring); the emulator's variance is not computed."""
+        rows = torch.as_tensor(np.atleast_2d(theta), dtype=torch.float64)
+        return self.at(self.emulator.predict_mean(self.problem.split.physical(rows)), None, rows)
 
     def at(self, mean: Tensor, var: Tensor | None, rows: Tensor) -> np.ndarray:
         """Eq. (21) log-likelihood `B` of predictions ``mean`` `B x L x n` with the extra
