@@ -14,6 +14,7 @@ from torchshm.inference.adaptive import sampling
 from torchshm.inference.adaptive.mixture import Mixture, fit_mixture
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint
 from torchshm.inference.adaptive.runs import RunSet
+from torchshm.inference.adaptive.unsure import N_POINTS, average_over_errors
 from torchshm.inference.posterior import Posterior
 from torchshm.inference.tensorboard import RunTrace
 
@@ -58,20 +59,34 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
     result, vp, source = posterior_draws(log_joint, chain, extra["hard"], extra["plausible"],
                                          extra["n_evidence"], seed)
     log_z, log_z_sd, samples = result.log_z, result.sd, result.draws
+    averaged = None
+    if not converged:  # the emulator's uncertainty kept in the posterior (:mod:`.unsure`)
+        averaged = average_over_errors(log_joint, np.asarray(samples), extra["hard"],
+                                       extra["plausible"], extra["n_evidence"], seed)
+    if averaged is not None:
+        samples, source = averaged.draws, "averaged over the emulator's errors"
+        log_z_sd = float(np.hypot(log_z_sd, averaged.log_z_spread))
+        vp = sampling.fit_density(samples, extra["hard"], extra["plausible"], seed)
     if not converged:
+        kept = ("the posterior averages the posteriors of the emulator's possible errors "
+                f"(their sd {averaged.error_sd:.3g} nats where it has weight; {averaged.ess:.0f} "
+                "effective draws), so it is as wide as what the emulator does not know yet"
+                if averaged is not None else "the posterior is the emulator mean's and may "
+                "still move by what the emulator does not know yet")
         warnings.warn(
             f"method='emulator' stopped at its cap of {extra['budget']} model runs before "
             f"the stop rule held (last round: TV {rounds[-1]['tv']:.3f}, emulator "
             f"log-likelihood sd {rounds[-1]['emulator_loglik_sd']:.3f} nats, last batch off by "
             f"{rounds[-1]['check_loglik_error']:.3g} nats, {rounds[-1]['n_unresolved']:.0f} "
             f"unresolved points of the box, {rounds[-1]['beyond_runs']:.0%} of the draws beyond "
-            "the runs); the posterior is the emulator mean's and may still move by what the "
-            "emulator does not know yet: raise max_model_evaluations",
-            RuntimeWarning, stacklevel=3)
+            f"the runs); {kept}: raise max_model_evaluations", RuntimeWarning, stacklevel=3)
     diagnostics = {
         "rounds": rounds, "n_rounds": len(rounds), "n_failed_evaluations": runs.n_failed,
         "n_reused_runs": extra["n_reused_runs"], "n_emulator_runs": int(runs.theta_p.shape[0]),
         "evidence_ess": result.ess, "evidence_khat": result.khat, "posterior_draws": source,
+        "averaged_over_errors": None if averaged is None else {
+            "ess": averaged.ess, "log_evidence_spread": averaged.log_z_spread,
+            "error_sd": averaged.error_sd, "n_points": N_POINTS, "n_fields": averaged.n_fields},
         "n_walkers": extra["n_walkers"],
         "wall_time_s": time.perf_counter() - extra["t0"],
         "final_cpu_time_s": time.process_time() - cpu,

@@ -1,0 +1,155 @@
+"""An unconverged posterior keeps the emulator's uncertainty in it.
+
+The posterior of the emulator method is Eq. (21) at the emulator's mean (:mod:`.likelihood`).
+When the stop rule held, the emulator's error moves that posterior by less than the rule's
+tolerance (the TV witness, :mod:`.witness`). When the cap ran out first, it may move it by
+much more, and the plug-in posterior can be narrower than its own error: on the suite's
+``beam4_bridge`` capped at 15 runs, a spring's mean lay 6.4 of its own sds from the
+reference's, with an sd 0.24 of the reference's (``scripts/bench_unconverged.py``).
+
+Such a posterior is therefore replaced by the average of the posteriors of draws of the
+emulator: ``p(θ) = E_f[π(θ) exp(ℓ_f(θ)) / Z_f]``, ``ℓ_f`` Eq. (21) at a joint draw ``f`` of
+the emulator over the parameter space (:func:`error_fields`: its mean plus an error field
+correlated across readings as the runs' fields are and across θ as its latent GP is, times
+its calibration; the error model of the stop rule's witness and sd). In practice:
+:data:`N_POINTS` draws of a proposal (a mixture fitted to the plug-in posterior's draws,
+widened, with slabs over the plausible box), up to :data:`N_FIELDS` joint draws of the
+emulator at them (fewer where one pass of Eq. (21) over the points is slow:
+:data:`BUDGET_S`), self-normalised importance weights per draw and their average. Where the
+emulator is sure the result is the plug-in posterior; where it is not, the posterior is as
+wide as its possible errors make it.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, NamedTuple
+
+import time
+
+import numpy as np
+import torch
+from scipy.special import logsumexp
+
+from torchshm.inference.adaptive import sampling
+from torchshm.inference.adaptive.mixture import fit_mixture
+
+if TYPE_CHECKING:
+    from torchshm.inference.adaptive.likelihood import EmulatedLogJoint
+
+#: proposal points at which the error is drawn jointly (an `N x N` Cholesky factor)
+N_POINTS = 1000
+#: joint draws of the emulator (each one an Eq. (21) evaluation at every point)
+N_FIELDS = 32
+#: rows per Eq. (21) call
+CHUNK = 256
+#: CPU seconds the draws may take, from the time of one plug-in pass over the points (at
+#: least :data:`MIN_FIELDS` draws)
+BUDGET_S, MIN_FIELDS = 30.0, 8
+#: widening of the proposal around the plug-in posterior (its errors may move it far)
+WIDEN = 3.0
+#: shares of the proposal's defensive part and of its slabs over the plausible box
+DEFENSIVE, SLABS = 0.3, 0.3
+
+
+class Averaged(NamedTuple):
+    """The plug-in posterior averaged over the emulator's possible errors."""
+
+    #: `n x D` draws, resampled by the averaged weights
+    draws: np.ndarray
+    #: effective sample size of the averaged weights (at most :data:`N_POINTS`)
+    ess: float
+    #: sd [nats] of the log evidence over the draws of the error
+    log_z_spread: float
+    #: the sd [nats] of the drawn log-likelihoods about the plug-in one, median over the
+    #: points of more than median weight
+    error_sd: float
+    #: joint draws of the emulator averaged over
+    n_fields: int
+
+
+def error_fields(log_joint: EmulatedLogJoint, rows: np.ndarray, n_fields: int,
+                 rng: np.random.Generator) -> np.ndarray:
+    """`n_fields x S` log joints at rows `S x D` of joint draws of the emulator (-inf outside
+    the support).
+
+    A draw is the emulator's mean plus an error field ``δ_j(θ) = sqrt(v_j(θ)) (B z(θ))_j`` at
+    every reading `j`: ``B`` the runs' field shapes (:attr:`FieldEmulator.error_basis`, `m x
+    N`, unit rows), ``z`` `N` independent draws of the emulator's standardised latent GP,
+    jointly over the `S` rows (its posterior correlation between them), ``v`` the calibrated
+    variance. Eq. (21) is evaluated at each drawn field exactly, so a large error costs what
+    its misfit costs (a first-order error would let any region far from the data gain
+    without bound).
+    """
+    value = np.asarray(log_joint.problem.log_prior(rows), dtype=np.float64).reshape(-1)
+    out = np.repeat(value[None, :], int(n_fields), axis=0)
+    mean, var, theta = log_joint.parts(rows)  # var: the calibrated (inflated) variance
+    emulator = log_joint.emulator
+    physical = log_joint.problem.split.physical(theta)
+    latent = emulator.latent_covariance(physical, physical)
+    sd = latent.diagonal().clamp_min(1e-300).sqrt()
+    corr = latent / (sd[:, None] * sd[None, :])
+    corr = 0.5 * (corr + corr.mT)
+    eye = torch.eye(corr.shape[0], dtype=corr.dtype)
+    for jitter in (1e-10, 1e-8, 1e-6, 1e-4):
+        factor, info = torch.linalg.cholesky_ex(corr + jitter * eye)
+        if int(info) == 0:
+            break
+    else:  # a spectral square root
+        values, vectors = torch.linalg.eigh(corr)
+        factor = vectors * values.clamp_min(0.0).sqrt()
+    basis = emulator.error_basis  # m x N
+    scale = var.sqrt().flatten(1)  # S x m
+    for k in range(int(n_fields)):
+        z = factor @ torch.as_tensor(rng.standard_normal((corr.shape[0], basis.shape[1])),
+                                     dtype=corr.dtype)  # S x N
+        for part in torch.arange(rows.shape[0]).split(CHUNK):
+            delta = (scale[part] * (z[part] @ basis.mT)).reshape(mean[part].shape)
+            out[k, part.numpy()] += log_joint.at(mean[part] + delta, None, theta[part])
+    out[~np.isfinite(out)] = -np.inf
+    return out
+
+
+def average_over_errors(log_joint: EmulatedLogJoint, draws: np.ndarray, hard: np.ndarray,
+                        plausible: np.ndarray, n: int, seed: int) -> Averaged | None:
+    """The posterior of ``log_joint`` averaged over draws of its error (module docstring).
+
+    Args:
+        log_joint: the last round's emulated log joint.
+        draws: `S x D` draws of its plug-in posterior.
+        hard, plausible: `D x 2` search and plausible bounds.
+        n: draws to return.
+        seed: seed of the proposal, the error draws and the resampling.
+
+    Returns:
+        The averaged posterior, or None when no proposal point has a finite log joint.
+    """
+    rng = np.random.default_rng([seed, 41])
+    mix = fit_mixture(draws, sampling.transformer(hard, plausible), seed)
+    proposal = mix.widened(WIDEN, DEFENSIVE).with_slabs(plausible, SLABS)
+    points = proposal.sample(N_POINTS, rng)
+    log_q = np.asarray(proposal.log_pdf(points), dtype=np.float64)
+    ok = np.isfinite(np.asarray(log_joint.problem.log_prior(points), dtype=np.float64)
+                     ).reshape(-1) & np.isfinite(log_q)
+    if not ok.any():
+        return None
+    points, log_q = points[ok], log_q[ok]
+    start = time.process_time()
+    plug_in = np.asarray(log_joint(points), dtype=np.float64)
+    per_pass = max(time.process_time() - start, 1e-6)
+    n_fields = int(min(N_FIELDS, max(MIN_FIELDS, BUDGET_S // per_pass)))
+    fields = error_fields(log_joint, points, n_fields, rng)  # K x S log joints
+    log_w = fields - log_q[None, :]
+    log_z = logsumexp(log_w, axis=1) - np.log(points.shape[0])  # K
+    weights = np.exp(log_w - logsumexp(log_w, axis=1, keepdims=True)).mean(0)
+    weights /= weights.sum()
+    ess = float(1.0 / np.square(weights).sum())
+    positions = (rng.random() + np.arange(n)) / n
+    index = np.minimum(np.searchsorted(np.cumsum(weights), positions), points.shape[0] - 1)
+    spread = np.where(np.isfinite(fields), fields - plug_in[None, :], np.nan)
+    sd = np.nanstd(spread, axis=0)
+    heavy = weights >= np.quantile(weights, 0.5)
+    return Averaged(points[rng.permutation(index)], ess, float(np.std(log_z)),
+                    float(np.nanmedian(sd[heavy])), n_fields)
+
+
+__all__ = ["Averaged", "N_FIELDS", "N_POINTS", "average_over_errors", "error_fields"]
