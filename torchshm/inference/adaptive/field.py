@@ -104,6 +104,15 @@ class FieldEmulator:
         with torch.no_grad():
             return self.surrogate.predict(theta_p, variance=False)[0]
 
+    def latent_correlation(self, theta_p: Tensor) -> Tensor:
+        """Posterior correlation `S x S` of the shared latent GP among θp `S x P`: how the
+        emulator's errors at those points move together (its error at a point is its sd
+        there times a draw of this correlation)."""
+        cov = self.latent_covariance(theta_p, theta_p)
+        sd = cov.diagonal().clamp_min(1e-300).sqrt()
+        corr = cov / (sd[:, None] * sd[None, :])
+        return 0.5 * (corr + corr.mT)
+
     def latent_covariance(self, a: Tensor, b: Tensor) -> Tensor:
         """Posterior covariance `A x B` of the shared latent GP between θp sets `A x P`, `B x P`.
 

@@ -84,11 +84,7 @@ def error_fields(log_joint: EmulatedLogJoint, rows: np.ndarray, n_fields: int,
     out = np.repeat(value[None, :], int(n_fields), axis=0)
     mean, var, theta = log_joint.parts(rows)  # var: the calibrated (inflated) variance
     emulator = log_joint.emulator
-    physical = log_joint.problem.split.physical(theta)
-    latent = emulator.latent_covariance(physical, physical)
-    sd = latent.diagonal().clamp_min(1e-300).sqrt()
-    corr = latent / (sd[:, None] * sd[None, :])
-    corr = 0.5 * (corr + corr.mT)
+    corr = emulator.latent_correlation(log_joint.problem.split.physical(theta))
     eye = torch.eye(corr.shape[0], dtype=corr.dtype)
     for jitter in (1e-10, 1e-8, 1e-6, 1e-4):
         factor, info = torch.linalg.cholesky_ex(corr + jitter * eye)

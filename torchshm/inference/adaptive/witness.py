@@ -57,14 +57,13 @@ def tv_witness(log_joint: EmulatedLogJoint, draws: np.ndarray, rng: np.random.Ge
         return 1.0
     mean, var, theta = log_joint.parts(rows)  # var: the calibrated (inflated) variance
     emulator = log_joint.emulator
-    latent = emulator.latent_covariance(*(log_joint.problem.split.physical(theta),) * 2)
-    scale = (var / latent.diagonal().clamp_min(1e-300)[:, None, None]).sqrt()
+    corr = emulator.latent_correlation(log_joint.problem.split.physical(theta))
     _, gradient = log_joint.gradient(mean, var, theta)
-    g = (torch.nan_to_num(gradient * scale) * log_joint.valid.to(scale.dtype)).flatten(1)
+    g = (torch.nan_to_num(gradient * var.sqrt()) * log_joint.valid.to(var.dtype)).flatten(1)
     z = torch.as_tensor(rng.standard_normal((rows.shape[0], int(n_fields))))
     # the outputs' errors independent (as the emulator has them) and correlated as the runs'
     # fields are (as they come out, :meth:`EmulatedLogJoint.error_variance`): the larger TV
-    return max(_mean_tv(latent * (u @ u.mT), z) for u in (g, g @ emulator.error_basis))
+    return max(_mean_tv(corr * (u @ u.mT), z) for u in (g, g @ emulator.error_basis))
 
 
 def _mean_tv(cov: torch.Tensor, z: torch.Tensor) -> float:
