@@ -185,9 +185,16 @@ def importance(log_joint: LogDensity, proposal: Proposal, n: int, seed: int) -> 
     w = np.exp(log_w - log_w.max())
     ess = float(w.sum() ** 2 / np.square(w).sum())
     rel = float(np.std(w / w.mean(), ddof=1) / np.sqrt(n))
+    return Importance(log_z, rel, ess, draws[resample(w, n, rng)], pareto_k(log_w))
+
+
+def resample(weights: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
+    """`n` indices into ``weights`` `S` (unnormalised, >= 0) by systematic resampling, in a
+    random order."""
     positions = (rng.random() + np.arange(n)) / n
-    index = np.minimum(np.searchsorted(np.cumsum(w) / w.sum(), positions), n - 1)
-    return Importance(log_z, rel, ess, draws[rng.permutation(index)], pareto_k(log_w))
+    index = np.minimum(np.searchsorted(np.cumsum(weights) / weights.sum(), positions),
+                       weights.shape[0] - 1)
+    return rng.permutation(index)
 
 
 def pareto_k(log_w: np.ndarray) -> float:

@@ -22,9 +22,8 @@ wide as its possible errors make it.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
-
 import time
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import torch
@@ -139,12 +138,10 @@ def average_over_errors(log_joint: EmulatedLogJoint, draws: np.ndarray, hard: np
     weights = np.exp(log_w - logsumexp(log_w, axis=1, keepdims=True)).mean(0)
     weights /= weights.sum()
     ess = float(1.0 / np.square(weights).sum())
-    positions = (rng.random() + np.arange(n)) / n
-    index = np.minimum(np.searchsorted(np.cumsum(weights), positions), points.shape[0] - 1)
     spread = np.where(np.isfinite(fields), fields - plug_in[None, :], np.nan)
     sd = np.nanstd(spread, axis=0)
     heavy = weights >= np.quantile(weights, 0.5)
-    return Averaged(points[rng.permutation(index)], ess, float(np.std(log_z)),
+    return Averaged(points[sampling.resample(weights, n, rng)], ess, float(np.std(log_z)),
                     float(np.nanmedian(sd[heavy])), n_fields)
 
 
