@@ -81,7 +81,7 @@ def error_fields(log_joint: EmulatedLogJoint, rows: np.ndarray, n_fields: int,
     """
     value = np.asarray(log_joint.problem.log_prior(rows), dtype=np.float64).reshape(-1)
     out = np.repeat(value[None, :], int(n_fields), axis=0)
-    mean, var, theta = log_joint.parts(rows)  # var: the calibrated (inflated) variance
+    theta = torch.as_tensor(np.atleast_2d(rows), dtype=torch.float64)
     emulator = log_joint.emulator
     corr = emulator.latent_correlation(log_joint.problem.split.physical(theta))
     eye = torch.eye(corr.shape[0], dtype=corr.dtype)
@@ -93,13 +93,16 @@ def error_fields(log_joint: EmulatedLogJoint, rows: np.ndarray, n_fields: int,
         values, vectors = torch.linalg.eigh(corr)
         factor = vectors * values.clamp_min(0.0).sqrt()
     basis = emulator.error_basis  # m x N
-    scale = var.sqrt().flatten(1)  # S x m
-    for k in range(int(n_fields)):
-        z = factor @ torch.as_tensor(rng.standard_normal((corr.shape[0], basis.shape[1])),
-                                     dtype=corr.dtype)  # S x N
-        for part in torch.arange(rows.shape[0]).split(CHUNK):
-            delta = (scale[part] * (z[part] @ basis.mT)).reshape(mean[part].shape)
-            out[k, part.numpy()] += log_joint.at(mean[part] + delta, None, theta[part])
+    z = torch.stack([factor @ torch.as_tensor(rng.standard_normal((corr.shape[0], basis.shape[1])),
+                                              dtype=corr.dtype) for _ in range(int(n_fields))])
+    # the emulator's mean and variance a chunk of rows at a time: `CHUNK x m` in memory, not
+    # `S x m` (a camera field has 10^5 readings or more)
+    for part in torch.arange(theta.shape[0]).split(CHUNK):
+        mean, var, rows_part = log_joint.parts(theta[part].numpy())  # var: calibrated
+        scale = var.sqrt().flatten(1)
+        for k in range(int(n_fields)):
+            delta = (scale * (z[k, part] @ basis.mT)).reshape(mean.shape)
+            out[k, part.numpy()] += log_joint.at(mean + delta, None, rows_part)
     out[~np.isfinite(out)] = -np.inf
     return out
 
