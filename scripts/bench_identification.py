@@ -41,7 +41,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.cases import case_hash, make_problem  # noqa: E402
 from benchmarks.catalog import CASES  # noqa: E402
-from benchmarks.holdout import FRESH, HOLDOUT, KNOWN  # noqa: E402
+from benchmarks.holdout import FRESH, HOLDOUT, KNOWN, THIRD  # noqa: E402
 from benchmarks.methods import TimedModel, run_method  # noqa: E402
 
 REFS = ROOT / "benchmarks" / "references"
@@ -51,6 +51,8 @@ BEGIN, END = "<!-- suite:begin -->", "<!-- suite:end -->"
 HOLDOUT_MARKS = ("<!-- holdout:begin -->", "<!-- holdout:end -->")
 #: and the second held-out set's (``--fresh``)
 FRESH_MARKS = ("<!-- fresh:begin -->", "<!-- fresh:end -->")
+#: and the third's (``--third``)
+THIRD_MARKS = ("<!-- third:begin -->", "<!-- third:end -->")
 METHODS = ("emulator", "vbmc", "gpry")
 #: the cases GPry runs on by default: the 2- and 4-parameter ones (see docs/benchmarks.md)
 GPRY_CASES = [name for name, case in CASES.items() if case.n_physical in (2, 4)]
@@ -230,6 +232,8 @@ def main() -> None:
                         "instead of the suite's; their table goes to its own section of docs/benchmarks.md")
     parser.add_argument("--fresh", action="store_true", help="the second held-out set (benchmarks/holdout.py "
                         "FRESH), drawn after the methods' defaults were fixed; its own section of docs/benchmarks.md")
+    parser.add_argument("--third", action="store_true", help="the third held-out set (benchmarks/holdout.py "
+                        "THIRD: damage, 5 parameters); its own section of docs/benchmarks.md")
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=[*METHODS, "emcee"])
     parser.add_argument("--gpry-cases", nargs="+", default=GPRY_CASES, choices=list(KNOWN),
                         help="the cases GPry runs on (default: the 2- and 4-parameter ones; minutes of CPU each)")
@@ -247,6 +251,8 @@ def main() -> None:
         args.cases = [c for c in args.cases if c in HOLDOUT] or list(HOLDOUT)
     if args.fresh:
         args.cases = [c for c in args.cases if c in FRESH] or list(FRESH)
+    if args.third:
+        args.cases = [c for c in args.cases if c in THIRD] or list(THIRD)
     if os.environ.get("TORCHSHM_SMOKE") == "1":  # a check that it runs (docs test), no figures
         args.cases, args.methods, args.quick, args.no_docs = args.cases[:1], args.methods[:1], True, True
         print(f"TORCHSHM_SMOKE=1: --quick, {args.cases} with {args.methods} only, docs/benchmarks.md left as it is")
@@ -271,12 +277,14 @@ def main() -> None:
     order = {c: i for i, c in enumerate(KNOWN)}
     rows.sort(key=lambda r: (order[r["case"]], [*METHODS, "emcee"].index(r["method"])))
     holdout, fresh = all(r["case"] in HOLDOUT for r in rows), all(r["case"] in FRESH for r in rows)
-    marks = HOLDOUT_MARKS if holdout else FRESH_MARKS if fresh else (BEGIN, END)
+    third = all(r["case"] in THIRD for r in rows)
+    marks = HOLDOUT_MARKS if holdout else FRESH_MARKS if fresh else THIRD_MARKS if third else (BEGIN, END)
     section = table(rows, header(meta, len(args.rescore or [None])), marks)
     print(section)
     if not args.no_docs:
         write_doc(section, marks, "Held-out cases (`scripts/bench_identification.py --holdout`)" if holdout
                   else "A second held-out set (`scripts/bench_identification.py --fresh`)" if fresh
+                  else "A third held-out set (`scripts/bench_identification.py --third`)" if third
                   else "Identification suite (`scripts/bench_identification.py`)")
 
 

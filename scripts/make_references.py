@@ -14,6 +14,7 @@ Usage (from the repository root)::
     OMP_NUM_THREADS=1 python scripts/make_references.py --case beam2_saturating --case plate2_field
     OMP_NUM_THREADS=1 python scripts/make_references.py --holdout  # the held-out cases
     OMP_NUM_THREADS=1 python scripts/make_references.py --fresh  # the second held-out set
+    OMP_NUM_THREADS=1 python scripts/make_references.py --third  # the third held-out set
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.cases import Case, case_hash, make_problem, truth_vector  # noqa: E402
 from benchmarks.catalog import CASES  # noqa: E402
-from benchmarks.holdout import FRESH, HOLDOUT, KNOWN  # noqa: E402
+from benchmarks.holdout import FRESH, HOLDOUT, KNOWN, THIRD  # noqa: E402
 from benchmarks.reference import direct_log_joint, find_modes, importance, run_chain  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "references"
@@ -117,10 +118,10 @@ def rehash(name: str) -> None:
 
 
 def _names(args: argparse.Namespace) -> list[str]:
-    """The cases the command line names: a whole set (``--all``, ``--holdout``, ``--fresh``) or
+    """The cases the command line names: a whole set (``--all``, ``--holdout``, ``--fresh``, ``--third``) or
     the ``--case`` ones."""
     return (list(CASES) if args.all else list(HOLDOUT) if args.holdout else list(FRESH) if args.fresh
-            else list(args.case))
+            else list(THIRD) if args.third else list(args.case))
 
 
 def main() -> None:
@@ -129,6 +130,7 @@ def main() -> None:
     parser.add_argument("--all", action="store_true", help="every case of the suite")
     parser.add_argument("--holdout", action="store_true", help="every held-out case (benchmarks/holdout.py)")
     parser.add_argument("--fresh", action="store_true", help="every case of the second held-out set (FRESH)")
+    parser.add_argument("--third", action="store_true", help="every case of the third held-out set (THIRD)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--rehash", action="store_true", help="only renew the definition hash of existing "
                         "references whose problem is unchanged (same log joint at their MAP, to 1e-3 nats)")

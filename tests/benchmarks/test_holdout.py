@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import torch
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
@@ -49,3 +50,26 @@ def test_the_second_set_is_new_and_holds_plates_and_six_parameters() -> None:
         for name, value in case.truth.items():
             low, high = case.priors[name].plausible_bounds
             assert low < value < high
+
+
+def test_the_third_set_is_new_and_holds_damage_and_five_parameters() -> None:
+    from benchmarks.holdout import FRESH, N_THIRD, THIRD, THIRD_SEED, generate_third
+
+    again = generate_third(THIRD_SEED, N_THIRD)
+    assert [(c.name, c.truth, c.kernel) for c in again.values()] == [(c.name, c.truth, c.kernel) for c in THIRD.values()]
+    assert not set(THIRD) & (set(CASES) | set(HOLDOUT) | set(FRESH))
+    assert {c.n_physical for c in THIRD.values()} == {2, 3, 4, 5}
+    assert sum("damage" in c.truth for c in THIRD.values()) >= 3  # a localised damage: position and depth
+    for case in THIRD.values():
+        problem = make_problem(case)
+        truth = truth_vector(case, list(problem.names))
+        assert np.isfinite(float(problem.log_joint(truth)))
+        for name, value in case.truth.items():
+            low, high = case.priors[name].plausible_bounds
+            assert low < value < high
+        if "damage" in case.truth:  # the damage changes the strains: it can be identified at all
+            model = case.model()
+            at = torch.tensor([case.truth[n] for n in model.names], dtype=torch.float64)
+            healthy = at.clone()
+            healthy[model.names.index("damage")] = 0.0
+            assert float((model(at) - model(healthy)).abs().max()) > 1.0  # µε

@@ -32,6 +32,10 @@ def test_estimate_scales_one_vector_to_a_round_and_the_end() -> None:
     assert est.per_vector > 0.0
     assert est.per_round == pytest.approx(cost.ROUND_FACTOR * 96 * 50 * est.per_vector)
     assert est.final == pytest.approx((8000 + 96 * 50) * est.per_vector)
+    # a capped run's average: one plug-in pass and N_FIELDS drawn passes over N_POINTS points
+    # (a fast likelihood: the draws' budget does not bind)
+    from torchshm.inference.adaptive import unsure
+    assert est.capped == pytest.approx((1 + unsure.N_FIELDS) * unsure.N_POINTS * est.per_vector)
 
 
 def test_announce_warns_only_above_the_limit(caplog: pytest.LogCaptureFixture) -> None:

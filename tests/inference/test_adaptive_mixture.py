@@ -121,3 +121,14 @@ def test_posterior_draws_match_the_target_moments() -> None:
     assert np.allclose(np.cov(vp_draws.T), cov, atol=0.08)
     assert float(logsumexp(vp.pdf(draws, log_flag=True).ravel() - target.logpdf(draws))
                  - np.log(8000)) == pytest.approx(0.0, abs=0.2)
+
+
+def test_defensive_is_the_widened_mixture_with_slabs() -> None:
+    rng = np.random.default_rng(3)
+    box = np.array([[0.0, 1.0], [-2.0, 2.0]])
+    fit = fit_mixture(rng.normal([0.5, 0.0], [0.05, 0.2], size=(400, 2)), transformer(box, box), 0)
+    one = fit.defensive(box, 3.0, 0.3, 0.2)
+    two = fit.widened(3.0, 0.3).with_slabs(box, 0.2)
+    x = two.sample(50, rng)
+    np.testing.assert_allclose(one.log_pdf(x), two.log_pdf(x), rtol=0, atol=1e-12)
+    assert one.weights.sum() == pytest.approx(1.0)

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import torch
 
+from torchshm.inference.adaptive import unsure
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint
 
 if TYPE_CHECKING:
@@ -48,11 +49,14 @@ class OwnCost:
         per_vector: one parameter vector of the emulated likelihood, in a batch.
         per_round: one round (round 0 costs about twice as much).
         final: the final chain, density and evidence.
+        capped: more at the end when the cap ends the run before the stop rule holds (the
+            posterior averaged over the emulator's errors, :mod:`.unsure`).
     """
 
     per_vector: float
     per_round: float
     final: float
+    capped: float = 0.0
 
 
 def estimate(problem: Problem, n_walkers: int, n_steps: int, final_steps: int, n_evidence: int,
@@ -83,7 +87,9 @@ def estimate(problem: Problem, n_walkers: int, n_steps: int, final_steps: int, n
     k = half if one * half <= TIMING_S else 4
     per = seconds(k) / k
     per_round = ROUND_FACTOR * n_walkers * n_steps * per
-    return OwnCost(per, per_round, (n_evidence + n_walkers * final_steps) * per)
+    per_pass = unsure.N_POINTS * per  # one pass of Eq. (21) over the average's points
+    fields = min(unsure.N_FIELDS, max(unsure.MIN_FIELDS, unsure.BUDGET_S // max(per_pass, 1e-9)))
+    return OwnCost(per, per_round, (n_evidence + n_walkers * final_steps) * per, (1 + fields) * per_pass)
 
 
 def duration(seconds: float) -> str:
@@ -99,7 +105,8 @@ def announce(problem: Problem, cost: OwnCost) -> None:
     text = (f"method='emulator': the emulated likelihood costs about {cost.per_vector:.2g} s of "
             f"CPU per parameter vector here ({n} readings, kernel {problem.kernel.name!r}), "
             f"so about {duration(cost.per_round)} of own compute per round (twice that in "
-            f"round 0) and {duration(cost.final)} at the end")
+            f"round 0) and {duration(cost.final)} at the end ({duration(cost.capped)} more if the "
+            f"cap ends the run before the stop rule holds)")
     if cost.per_round <= WARN_ROUND_S:
         logger.info(text)
         return

@@ -133,7 +133,7 @@ def posterior_draws(log_joint: EmulatedLogJoint, chain: np.ndarray, hard: np.nda
     mix = fit_mixture(chain, tr, seed)
 
     def proposal(fitted: Mixture, factor: float) -> Mixture:
-        return fitted.widened(factor, DEFENSIVE).with_slabs(plausible, SLABS)
+        return fitted.defensive(plausible, factor, DEFENSIVE, SLABS)
 
     best = sampling.importance(log_joint, proposal(mix, 2.0), n, seed)
     if best.ess < REFIT_SHARE * n:  # tails heavier than the defensive part's, or a mode missed

@@ -97,6 +97,11 @@ class Mixture:
                        self.transformer,
                        np.concatenate([self.dofs, np.full(len(self.weights), float(df))]))
 
+    def defensive(self, box: np.ndarray, factor: float, share: float, slabs: float) -> Mixture:
+        """The importance proposal built on this fit: :meth:`widened` by ``factor`` with
+        ``share``, then :meth:`with_slabs` over ``box`` `D x 2` with the share ``slabs``."""
+        return self.widened(factor, share).with_slabs(box, slabs)
+
     def with_slabs(self, box: np.ndarray, share: float = 0.2) -> Mixture:
         """``(1 - share) self + share S``: ``S`` holds, for each coordinate `d` in turn and
         each component, the component with coordinate `d` cut loose (its correlations dropped)

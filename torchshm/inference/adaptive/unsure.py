@@ -123,7 +123,7 @@ def average_over_errors(log_joint: EmulatedLogJoint, draws: np.ndarray, hard: np
     """
     rng = np.random.default_rng([seed, 41])
     mix = fit_mixture(draws, sampling.transformer(hard, plausible), seed)
-    proposal = mix.widened(WIDEN, DEFENSIVE).with_slabs(plausible, SLABS)
+    proposal = mix.defensive(plausible, WIDEN, DEFENSIVE, SLABS)
     points = proposal.sample(N_POINTS, rng)
     log_q = np.asarray(proposal.log_pdf(points), dtype=np.float64)
     ok = np.isfinite(np.asarray(log_joint.problem.log_prior(points), dtype=np.float64)
