@@ -93,6 +93,14 @@ class EmulatedLogJoint:
         values[np.isnan(values)] = -np.inf
         return values
 
+    def at_error(self, mean: Tensor, var: Tensor, rows: Tensor, z: Tensor) -> np.ndarray:
+        """Eq. (21) log-likelihood `B` at the emulator's mean `B x L x n` plus an error field:
+        ``sqrt(var_j) (E z)_j`` at reading `j`, ``E`` the runs' field shapes
+        (:attr:`FieldEmulator.error_basis`, `m x N`, unit rows) and ``z`` `B x N` standard
+        draws of its latent GP (the error model of :meth:`error_variance`, not to first order)."""
+        delta = var.sqrt().flatten(1) * (z @ self.emulator.error_basis.mT)
+        return self.at(mean + delta.reshape(mean.shape), None, rows)
+
     def value_and_sd(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Log joint `B` of rows `B x D` (-inf outside the support) and the sd [nats] of the
         log-likelihood that the emulator error causes there (:meth:`error_variance`)."""

@@ -92,17 +92,15 @@ def error_fields(log_joint: EmulatedLogJoint, rows: np.ndarray, n_fields: int,
     else:  # a spectral square root
         values, vectors = torch.linalg.eigh(corr)
         factor = vectors * values.clamp_min(0.0).sqrt()
-    basis = emulator.error_basis  # m x N
-    z = torch.stack([factor @ torch.as_tensor(rng.standard_normal((corr.shape[0], basis.shape[1])),
+    n_latent = emulator.error_basis.shape[1]  # N
+    z = torch.stack([factor @ torch.as_tensor(rng.standard_normal((corr.shape[0], n_latent)),
                                               dtype=corr.dtype) for _ in range(int(n_fields))])
     # the emulator's mean and variance a chunk of rows at a time: `CHUNK x m` in memory, not
     # `S x m` (a camera field has 10^5 readings or more)
     for part in torch.arange(theta.shape[0]).split(CHUNK):
         mean, var, rows_part = log_joint.parts(theta[part].numpy())  # var: calibrated
-        scale = var.sqrt().flatten(1)
         for k in range(int(n_fields)):
-            delta = (scale * (z[k, part] @ basis.mT)).reshape(mean.shape)
-            out[k, part.numpy()] += log_joint.at(mean + delta, None, rows_part)
+            out[k, part.numpy()] += log_joint.at_error(mean, var, rows_part, z[k, part])
     out[~np.isfinite(out)] = -np.inf
     return out
 
