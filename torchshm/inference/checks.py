@@ -27,6 +27,7 @@ import torchshm.inference.methods  # noqa: F401  (registers the built-in methods
 from torchshm.inference.adaptive.final import EXTRAPOLATION_SHARE  # warn at this share beyond the runs
 from torchshm.inference.noise_check import noise_check
 from torchshm.inference.registry import find_method
+from torchshm.inference.vbmc_check import misfit_line
 from torchshm.problem.parameters import statistical_base
 
 if TYPE_CHECKING:
@@ -50,6 +51,7 @@ def check_fit(post: Posterior) -> Posterior:
         if share >= BOUND_FACTOR * EDGE:
             lines.append(bound_line(name, end, bound, share))
     lines += extrapolation_lines(post)
+    lines.append(misfit(post))
     lines.append(evidence_line(post))
     try:
         noise_line, numbers = noise_check(post)
@@ -106,6 +108,12 @@ def extrapolation_lines(post: Posterior) -> list[str]:
                        "store with a larger max_model_evaluations or n_initial, or a plausible "
                        "box that covers where the posterior lies (finished runs are reused)")
     return out
+
+
+def misfit(post: Posterior) -> str | None:
+    """``VBMC MISFIT``: a VBMC posterior that underweights points of its bulk that VBMC
+    evaluated (``diagnostics["misfit"]``, :mod:`torchshm.inference.vbmc_check`)."""
+    return misfit_line(post.diagnostics) if post.diagnostics.get("misfit") else None
 
 
 def evidence_line(post: Posterior) -> str | None:
@@ -185,4 +193,5 @@ def warning_tags(lines: list[str] | tuple[str, ...], parameters: bool = True) ->
 
 
 __all__ = ["BOUND_FACTOR", "EDGE", "EXTRAPOLATION_SHARE", "bound_line", "bound_shares",
-           "check_fit", "convergence_line", "evidence_line", "extrapolation_lines", "run_lines", "warning_tags"]
+           "check_fit", "convergence_line", "evidence_line", "extrapolation_lines", "misfit", "run_lines",
+           "warning_tags"]

@@ -24,6 +24,7 @@ from torchshm.inference.posterior import Posterior
 from torchshm.inference.start import StartSettings, find_start, vbmc_budget, vbmc_start
 from torchshm.inference.target import LogJointTarget, point_log_for
 from torchshm.inference.tensorboard import RunTrace, marginal_scalars
+from torchshm.inference.vbmc_check import TOLERANCE, against_evaluations, misfit_line
 
 if TYPE_CHECKING:
     from torchshm.problem import Problem
@@ -244,7 +245,9 @@ def _posterior(
     problem: Problem, vp: VariationalPosterior, results: dict[str, Any], trace: RunTrace, target: LogJointTarget,
     calls_before: int, n_samples: int, seed: int, extra: dict[str, Any],
 ) -> Posterior:
-    """Assemble the :class:`Posterior` of a finished PyVBMC run and warn when not converged."""
+    """Assemble the :class:`Posterior` of a finished PyVBMC run and warn when not converged
+    (PyVBMC's stability test failed) or when the posterior underweights points of its bulk
+    that VBMC evaluated (:mod:`torchshm.inference.vbmc_check`)."""
     converged = bool(results["success_flag"])
     diagnostics: dict[str, Any] = {
         "iterations": int(results["iterations"]),
@@ -259,6 +262,15 @@ def _posterior(
         **extra,
     }
     n_calls = int(problem.n_model_evaluations) - calls_before
+    draw_vp = copy.deepcopy(vp)
+    draw_vp.rng = np.random.default_rng([seed, 11])
+    samples, _ = draw_vp.sample(int(n_samples))
+    vp.rng = np.random.default_rng([seed, 13])
+    excess = against_evaluations(vp, *target.known(), samples, float(results["elbo"]))
+    diagnostics.update(evaluated_excess=excess.largest, evaluated_bulk=excess.n_bulk,
+                       evaluated_over=excess.n_over, misfit=bool(excess.largest > TOLERANCE))
+    if diagnostics["misfit"]:  # the posterior against the log joint VBMC evaluated
+        warnings.warn(misfit_line(diagnostics), RuntimeWarning, stacklevel=3)
     if not converged:
         warnings.warn(
             f"VBMC did not converge ({results['message'].strip()}); the posterior may be "
@@ -272,10 +284,6 @@ def _posterior(
             f"{target.error_text()}",
             RuntimeWarning, stacklevel=3,
         )
-    draw_vp = copy.deepcopy(vp)
-    draw_vp.rng = np.random.default_rng([seed, 11])
-    samples, _ = draw_vp.sample(int(n_samples))
-    vp.rng = np.random.default_rng([seed, 13])
     return Posterior(
         names=list(problem.names), method="vbmc", samples=np.asarray(samples, dtype=np.float64),
         log_evidence=float(results["elbo"]), log_evidence_sd=float(results["elbo_sd"]),
