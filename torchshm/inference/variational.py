@@ -268,7 +268,8 @@ def _posterior(
     vp.rng = np.random.default_rng([seed, 13])
     excess = against_evaluations(vp, *target.known(), samples, float(results["elbo"]))
     diagnostics.update(evaluated_excess=excess.largest, evaluated_bulk=excess.n_bulk,
-                       evaluated_over=excess.n_over, misfit=bool(excess.largest > TOLERANCE))
+                       evaluated_over=excess.n_over, evaluated_where=excess.where.tolist(),
+                       misfit=bool(excess.largest > TOLERANCE))
     if diagnostics["misfit"]:  # the posterior against the log joint VBMC evaluated
         warnings.warn(misfit_line(diagnostics), RuntimeWarning, stacklevel=3)
     if not converged:
