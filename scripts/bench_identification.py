@@ -47,12 +47,16 @@ from benchmarks.methods import TimedModel, run_method  # noqa: E402
 REFS = ROOT / "benchmarks" / "references"
 DOC = ROOT / "docs" / "benchmarks.md"
 BEGIN, END = "<!-- suite:begin -->", "<!-- suite:end -->"
-#: the held-out cases' table (``--holdout``) has markers and a section of its own
-HOLDOUT_MARKS = ("<!-- holdout:begin -->", "<!-- holdout:end -->")
-#: and the second held-out set's (``--fresh``)
-FRESH_MARKS = ("<!-- fresh:begin -->", "<!-- fresh:end -->")
-#: and the third's (``--third``)
-THIRD_MARKS = ("<!-- third:begin -->", "<!-- third:end -->")
+#: each held-out set (``--holdout``, ``--fresh``, ``--third``): its cases, and the markers and
+#: title of its own section of docs/benchmarks.md
+SETS = {
+    "holdout": (HOLDOUT, ("<!-- holdout:begin -->", "<!-- holdout:end -->"),
+                "Held-out cases (`scripts/bench_identification.py --holdout`)"),
+    "fresh": (FRESH, ("<!-- fresh:begin -->", "<!-- fresh:end -->"),
+              "A second held-out set (`scripts/bench_identification.py --fresh`)"),
+    "third": (THIRD, ("<!-- third:begin -->", "<!-- third:end -->"),
+              "A third held-out set (`scripts/bench_identification.py --third`)"),
+}
 METHODS = ("emulator", "vbmc", "gpry")
 #: the cases GPry runs on by default: the 2- and 4-parameter ones (see docs/benchmarks.md)
 GPRY_CASES = [name for name, case in CASES.items() if case.n_physical in (2, 4)]
@@ -247,12 +251,9 @@ def main() -> None:
     parser.add_argument("--rescore", type=Path, nargs="+", help="score the rows of earlier --out files "
                         "again (e.g. after making references; several: runs split by --methods) instead of running")
     args = parser.parse_args()
-    if args.holdout:
-        args.cases = [c for c in args.cases if c in HOLDOUT] or list(HOLDOUT)
-    if args.fresh:
-        args.cases = [c for c in args.cases if c in FRESH] or list(FRESH)
-    if args.third:
-        args.cases = [c for c in args.cases if c in THIRD] or list(THIRD)
+    for name, (cases, _, _) in SETS.items():
+        if getattr(args, name):
+            args.cases = [c for c in args.cases if c in cases] or list(cases)
     if os.environ.get("TORCHSHM_SMOKE") == "1":  # a check that it runs (docs test), no figures
         args.cases, args.methods, args.quick, args.no_docs = args.cases[:1], args.methods[:1], True, True
         print(f"TORCHSHM_SMOKE=1: --quick, {args.cases} with {args.methods} only, docs/benchmarks.md left as it is")
@@ -276,17 +277,13 @@ def main() -> None:
         save(rows)
     order = {c: i for i, c in enumerate(KNOWN)}
     rows.sort(key=lambda r: (order[r["case"]], [*METHODS, "emcee"].index(r["method"])))
-    holdout, fresh = all(r["case"] in HOLDOUT for r in rows), all(r["case"] in FRESH for r in rows)
-    third = all(r["case"] in THIRD for r in rows)
-    marks = HOLDOUT_MARKS if holdout else FRESH_MARKS if fresh else THIRD_MARKS if third else (BEGIN, END)
+    held_out = next((v for v in SETS.values() if all(r["case"] in v[0] for r in rows)), None)
+    marks, title = (held_out[1], held_out[2]) if held_out else ((BEGIN, END), "Identification suite "
+                                                                 "(`scripts/bench_identification.py`)")
     section = table(rows, header(meta, len(args.rescore or [None])), marks)
     print(section)
     if not args.no_docs:
-        write_doc(section, marks, "Held-out cases (`scripts/bench_identification.py --holdout`)" if holdout
-                  else "A second held-out set (`scripts/bench_identification.py --fresh`)" if fresh
-                  else "A third held-out set (`scripts/bench_identification.py --third`)" if third
-                  else "Identification suite (`scripts/bench_identification.py`)")
-
+        write_doc(section, marks, title)
 
 if __name__ == "__main__":
     main()

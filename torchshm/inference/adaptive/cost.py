@@ -88,8 +88,8 @@ def estimate(problem: Problem, n_walkers: int, n_steps: int, final_steps: int, n
     per = seconds(k) / k
     per_round = ROUND_FACTOR * n_walkers * n_steps * per
     per_pass = unsure.N_POINTS * per  # one pass of Eq. (21) over the average's points
-    fields = min(unsure.N_FIELDS, max(unsure.MIN_FIELDS, unsure.BUDGET_S // max(per_pass, 1e-9)))
-    return OwnCost(per, per_round, (n_evidence + n_walkers * final_steps) * per, (1 + fields) * per_pass)
+    return OwnCost(per, per_round, (n_evidence + n_walkers * final_steps) * per,
+                   (1 + unsure.fields_for(per_pass)) * per_pass)
 
 
 def duration(seconds: float) -> str:

@@ -66,6 +66,13 @@ class Averaged(NamedTuple):
     n_fields: int
 
 
+def fields_for(per_pass: float) -> int:
+    """Joint draws of the emulator to average over when one pass of Eq. (21) over the
+    :data:`N_POINTS` points takes ``per_pass`` CPU seconds (:data:`BUDGET_S`, at least
+    :data:`MIN_FIELDS`, at most :data:`N_FIELDS`)."""
+    return int(min(N_FIELDS, max(MIN_FIELDS, BUDGET_S // max(per_pass, 1e-9))))
+
+
 def error_fields(log_joint: EmulatedLogJoint, rows: np.ndarray, n_fields: int,
                  rng: np.random.Generator) -> np.ndarray:
     """`n_fields x S` log joints at rows `S x D` of joint draws of the emulator (-inf outside
@@ -132,7 +139,7 @@ def average_over_errors(log_joint: EmulatedLogJoint, draws: np.ndarray, hard: np
     start = time.process_time()
     plug_in = np.asarray(log_joint(points), dtype=np.float64)
     per_pass = max(time.process_time() - start, 1e-6)
-    n_fields = int(min(N_FIELDS, max(MIN_FIELDS, BUDGET_S // per_pass)))
+    n_fields = fields_for(per_pass)
     fields = error_fields(log_joint, points, n_fields, rng)  # K x S log joints
     log_w = fields - log_q[None, :]
     log_z = logsumexp(log_w, axis=1) - np.log(points.shape[0])  # K
@@ -146,4 +153,4 @@ def average_over_errors(log_joint: EmulatedLogJoint, draws: np.ndarray, hard: np
                     float(np.nanmedian(sd[heavy])), n_fields)
 
 
-__all__ = ["Averaged", "N_FIELDS", "N_POINTS", "average_over_errors", "error_fields"]
+__all__ = ["Averaged", "N_FIELDS", "N_POINTS", "average_over_errors", "error_fields", "fields_for"]
