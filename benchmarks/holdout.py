@@ -39,6 +39,9 @@ N_FRESH = 12
 #: seed and size of :data:`THIRD`, the third held-out set
 THIRD_SEED = 2028
 N_THIRD = 12
+#: seed and size of :data:`EDGE`, the fourth held-out set (dimensions no other set holds)
+EDGE_SEED = 2029
+N_EDGE = 8
 KERNELS = ("exponential", "matern32", "matern52", "squared_exponential", "independent")
 INERTIA = 0.3  # second moment of area [m^4], as the suite's beams
 
@@ -191,14 +194,30 @@ def generate_third(seed: int = THIRD_SEED, n: int = N_THIRD) -> dict[str, Case]:
     return {c.name: c for c in cases}
 
 
+def generate_edge(seed: int = EDGE_SEED, n: int = N_EDGE) -> dict[str, Case]:
+    """The fourth held-out set: ``n`` beams drawn from ``seed`` at the dimensions no other set
+    holds, one physical parameter (a modulus alone: the commonest user problem) and seven or
+    eight (half of those with a localised damage); a role pool smaller than asked for gives
+    fewer parameters, and the name says how many; name -> :class:`Case`."""
+    rng = np.random.default_rng(seed)
+    cases = []
+    for i in range(n):
+        n_phys = (1, 7, 1, 8)[i % 4]
+        damage = n_phys > 1 and bool(rng.random() < 0.5)
+        cases.append(_case(rng, i, n_phys=n_phys, prefix="edge", damage=damage))
+    return {c.name: c for c in cases}
+
+
 #: the held-out cases the benchmarks report (name -> :class:`Case`)
 HOLDOUT: dict[str, Case] = generate()
 #: the second held-out set, drawn after every default of the methods was fixed (2026-11-26)
 FRESH: dict[str, Case] = generate_fresh()
 #: the third held-out set, drawn after the capped-posterior average (2026-11-26, 21:00 UTC)
 THIRD: dict[str, Case] = generate_third()
+#: the fourth held-out set: 1, 7 and 8 physical parameters (2026-11-27, 00:00 UTC)
+EDGE: dict[str, Case] = generate_edge()
 #: every case a benchmark row or reference may name: the suite's and the three held-out sets'
-KNOWN: dict[str, Case] = {**CASES, **HOLDOUT, **FRESH, **THIRD}
+KNOWN: dict[str, Case] = {**CASES, **HOLDOUT, **FRESH, **THIRD, **EDGE}
 
-__all__ = ["FRESH", "FRESH_SEED", "HOLDOUT", "KNOWN", "N_CASES", "N_FRESH", "N_THIRD", "SEED", "THIRD",
-           "THIRD_SEED", "generate", "generate_fresh", "generate_third"]
+__all__ = ["EDGE", "EDGE_SEED", "N_EDGE", "FRESH", "FRESH_SEED", "HOLDOUT", "KNOWN", "N_CASES", "N_FRESH", "N_THIRD", "SEED", "THIRD",
+           "THIRD_SEED", "generate", "generate_edge", "generate_fresh", "generate_third"]

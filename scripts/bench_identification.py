@@ -41,13 +41,13 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.cases import case_hash, make_problem  # noqa: E402
 from benchmarks.catalog import CASES  # noqa: E402
-from benchmarks.holdout import FRESH, HOLDOUT, KNOWN, THIRD  # noqa: E402
+from benchmarks.holdout import EDGE, FRESH, HOLDOUT, KNOWN, THIRD  # noqa: E402
 from benchmarks.methods import TimedModel, run_method  # noqa: E402
 
 REFS = ROOT / "benchmarks" / "references"
 DOC = ROOT / "docs" / "benchmarks.md"
 BEGIN, END = "<!-- suite:begin -->", "<!-- suite:end -->"
-#: each held-out set (``--holdout``, ``--fresh``, ``--third``): its cases, and the markers and
+#: each held-out set (``--holdout``, ``--fresh``, ``--third``, ``--edge``): its cases, and the markers and
 #: title of its own section of docs/benchmarks.md
 SETS = {
     "holdout": (HOLDOUT, ("<!-- holdout:begin -->", "<!-- holdout:end -->"),
@@ -56,6 +56,8 @@ SETS = {
               "A second held-out set (`scripts/bench_identification.py --fresh`)"),
     "third": (THIRD, ("<!-- third:begin -->", "<!-- third:end -->"),
               "A third held-out set (`scripts/bench_identification.py --third`)"),
+    "edge": (EDGE, ("<!-- edge:begin -->", "<!-- edge:end -->"),
+             "A fourth held-out set: 1, 7 and 8 parameters (`scripts/bench_identification.py --edge`)"),
 }
 METHODS = ("emulator", "vbmc", "gpry")
 #: the cases GPry runs on by default: the 2- and 4-parameter ones (see docs/benchmarks.md)
@@ -238,6 +240,8 @@ def main() -> None:
                         "FRESH), drawn after the methods' defaults were fixed; its own section of docs/benchmarks.md")
     parser.add_argument("--third", action="store_true", help="the third held-out set (benchmarks/holdout.py "
                         "THIRD: damage, 5 parameters); its own section of docs/benchmarks.md")
+    parser.add_argument("--edge", action="store_true", help="the fourth held-out set (benchmarks/holdout.py "
+                        "EDGE: 1, 7 and 8 physical parameters); its own section of docs/benchmarks.md")
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=[*METHODS, "emcee"])
     parser.add_argument("--gpry-cases", nargs="+", default=GPRY_CASES, choices=list(KNOWN),
                         help="the cases GPry runs on (default: the 2- and 4-parameter ones; minutes of CPU each)")

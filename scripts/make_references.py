@@ -15,6 +15,7 @@ Usage (from the repository root)::
     OMP_NUM_THREADS=1 python scripts/make_references.py --holdout  # the held-out cases
     OMP_NUM_THREADS=1 python scripts/make_references.py --fresh  # the second held-out set
     OMP_NUM_THREADS=1 python scripts/make_references.py --third  # the third held-out set
+    OMP_NUM_THREADS=1 python scripts/make_references.py --edge   # the fourth: 1, 7, 8 parameters
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.cases import Case, case_hash, make_problem, truth_vector  # noqa: E402
 from benchmarks.catalog import CASES  # noqa: E402
-from benchmarks.holdout import FRESH, HOLDOUT, KNOWN, THIRD  # noqa: E402
+from benchmarks.holdout import EDGE, FRESH, HOLDOUT, KNOWN, THIRD  # noqa: E402
 from benchmarks.reference import direct_log_joint, find_modes, importance, run_chain  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "references"
@@ -118,10 +119,10 @@ def rehash(name: str) -> None:
 
 
 def _names(args: argparse.Namespace) -> list[str]:
-    """The cases the command line names: a whole set (``--all``, ``--holdout``, ``--fresh``, ``--third``) or
-    the ``--case`` ones."""
+    """The cases the command line names: a whole set (``--all``, ``--holdout``, ``--fresh``,
+    ``--third``, ``--edge``) or the ``--case`` ones."""
     return (list(CASES) if args.all else list(HOLDOUT) if args.holdout else list(FRESH) if args.fresh
-            else list(THIRD) if args.third else list(args.case))
+            else list(THIRD) if args.third else list(EDGE) if args.edge else list(args.case))
 
 
 def main() -> None:
@@ -131,6 +132,8 @@ def main() -> None:
     parser.add_argument("--holdout", action="store_true", help="every held-out case (benchmarks/holdout.py)")
     parser.add_argument("--fresh", action="store_true", help="every case of the second held-out set (FRESH)")
     parser.add_argument("--third", action="store_true", help="every case of the third held-out set (THIRD)")
+    parser.add_argument("--edge", action="store_true", help="every case of the fourth held-out set (EDGE: "
+                        "1, 7 and 8 physical parameters)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--rehash", action="store_true", help="only renew the definition hash of existing "
                         "references whose problem is unchanged (same log joint at their MAP, to 1e-3 nats)")

@@ -73,3 +73,20 @@ def test_the_third_set_is_new_and_holds_damage_and_five_parameters() -> None:
             healthy = at.clone()
             healthy[model.names.index("damage")] = 0.0
             assert float((model(at) - model(healthy)).abs().max()) > 1.0  # µε
+
+
+def test_the_fourth_set_holds_one_and_seven_or_more_parameters() -> None:
+    from benchmarks.holdout import EDGE, EDGE_SEED, FRESH, N_EDGE, THIRD, generate_edge
+
+    again = generate_edge(EDGE_SEED, N_EDGE)
+    assert [(c.name, c.truth, c.kernel) for c in again.values()] == [(c.name, c.truth, c.kernel) for c in EDGE.values()]
+    assert not set(EDGE) & (set(CASES) | set(HOLDOUT) | set(FRESH) | set(THIRD))
+    sizes = {c.n_physical for c in EDGE.values()}
+    assert 1 in sizes and max(sizes) >= 8  # dimensions no other set holds
+    for case in EDGE.values():
+        assert case.name.endswith(f"_p{case.n_physical}")
+        problem = make_problem(case)
+        assert np.isfinite(float(problem.log_joint(truth_vector(case, list(problem.names)))))
+        for name, value in case.truth.items():
+            low, high = case.priors[name].plausible_bounds
+            assert low < value < high
