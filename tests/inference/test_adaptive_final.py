@@ -44,3 +44,20 @@ def test_draws_at_the_edge_of_the_runs_count_and_the_run_goes_past_it() -> None:
     # runs that reach the bound leave nothing to extend on that side
     runs[-1, 1] = 12.9
     assert not edge_rows(draws, [0, 1], runs, box).any()
+
+
+def test_the_cap_warning_says_which_part_of_the_rule_failed() -> None:
+    from torchshm.inference.adaptive.explore import N_SOBOL
+    from torchshm.inference.adaptive.final import cap_reason
+
+    def row(runs: int, settled: bool, unresolved: int = 0, edge: bool = False) -> dict:
+        return {"n_model_evaluations": float(runs), "settled": float(settled),
+                "n_unresolved": float(unresolved), "extrapolating": float(edge)}
+
+    moving = [row(10, False, 300), row(15, True, 200), row(20, False, 100)]
+    assert "had not settled" in cap_reason(moving)
+    exploring = [row(10, False, 300), row(15, True, 200), row(20, True, 150), row(25, True, 120)]
+    text = cap_reason(exploring)
+    assert "settled after 15 runs" in text and f"120 of {N_SOBOL} points" in text
+    assert "edge" not in text
+    assert "edge of the runs" in cap_reason([row(30, True, 0, edge=True)])

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from torchshm.inference.adaptive import sampling
+from torchshm.inference.adaptive.explore import N_SOBOL
 from torchshm.inference.adaptive.mixture import Mixture, fit_mixture
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint
 from torchshm.inference.adaptive.runs import RunSet
@@ -43,6 +44,31 @@ WIDE = 3.0
 PILOT_SHARE, PILOT_MIN = 8, 500
 #: share of the proposal in the mixture widened, and in its slabs (:meth:`.Mixture.with_slabs`)
 DEFENSIVE, SLABS = 0.25, 0.2
+
+
+def cap_reason(rounds: list[dict[str, Any]]) -> str:
+    """Which part of the stop rule still failed at the cap, in words, from the rounds' rows.
+
+    A posterior that had settled (TV, emulator sd and batch check held) while points of the box
+    stayed unresolved is a different outcome from one still moving: the first is right about
+    the mode it found and cannot rule out another; the second may be wrong about its own.
+    """
+    last = rounds[-1]
+    if not last.get("settled"):
+        return ("the posterior itself had not settled (the emulator was still learning where it "
+                "lies)")
+    first = len(rounds) - 1
+    while first > 0 and rounds[first - 1].get("settled"):
+        first -= 1
+    parts = []
+    if last.get("n_unresolved", 0) > 0:
+        parts.append(f"{last['n_unresolved']:.0f} of {N_SOBOL} points of the box were still "
+                     "unresolved, so a mode elsewhere in the box is not ruled out")
+    if last.get("extrapolating"):
+        parts.append("draws still lay at the edge of the runs")
+    return (f"the posterior around the found mode had settled after "
+            f"{rounds[first]['n_model_evaluations']:.0f} runs, but "
+            + " and ".join(parts or ["its last round did not pass the rule"]))
 
 
 def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, last: np.ndarray,
@@ -79,7 +105,8 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
             f"log-likelihood sd {rounds[-1]['emulator_loglik_sd']:.3f} nats, last batch off by "
             f"{rounds[-1]['check_loglik_error']:.3g} nats, {rounds[-1]['n_unresolved']:.0f} "
             f"unresolved points of the box, {rounds[-1]['beyond_runs']:.0%} of the draws beyond "
-            f"the runs); {kept}: raise max_model_evaluations", RuntimeWarning, stacklevel=3)
+            f"the runs); {cap_reason(rounds)}; {kept}: raise max_model_evaluations",
+            RuntimeWarning, stacklevel=3)
     diagnostics = {
         "rounds": rounds, "n_rounds": len(rounds), "n_failed_evaluations": runs.n_failed,
         "n_reused_runs": extra["n_reused_runs"], "n_emulator_runs": int(runs.theta_p.shape[0]),

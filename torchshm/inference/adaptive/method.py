@@ -217,6 +217,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                    "n_modes": float(n_modes), "emulator_share": float(share.mean()), "emulator_share_max": float(share.max()),
                    "emulator_loglik_sd": float(sd.mean()), "emulator_inflation": inflation,
                    "check_loglik_error": check.max_error if check is not None else np.nan,
+                   "settled": float(settled), "extrapolating": float(extrapolating),
                    "n_unresolved": float(scan.n_unresolved), "explore_margin": scan.margin,
                    "explore_calibration": far_calibration, "beyond_runs": float(beyond.mean()),
                    "edge_runs": float(edge.mean()),
