@@ -6,7 +6,14 @@ The public names below (see ``docs/api.md``: signatures and examples) are import
 
 from __future__ import annotations
 
+import os
+
 from torchshm._lazy import lazy_dir, lazy_getattr
+
+# GPyTorch imports pykeops when it is installed (the benchmarks' peer), and pykeops prints a
+# notice about CUDA libraries on a CPU machine at that import; torchshm uses no KeOps kernel.
+# A user's own KEOPS_VERBOSE wins.
+os.environ.setdefault("KEOPS_VERBOSE", "0")
 
 __version__ = "0.1.0"
 
