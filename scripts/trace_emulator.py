@@ -5,7 +5,8 @@ round, the terms its stop rule reads (``diagnostics["rounds"]``; ``docs/inferenc
 runs so far, TV to the previous round, the witness, the emulator's log-likelihood sd over the
 posterior, how far the last batch was off, the batch check's calibration, the unresolved points
 of the box, the exploration's calibration, the share of draws at the runs' edge, the modes, and
-whether the posterior had settled; then the result against the case's reference.
+whether the posterior had settled, and (with a reference) how far the round's posterior means
+of the physical parameters lie from the reference's, in its sds; then the result beside it.
 
     OMP_NUM_THREADS=1 python scripts/trace_emulator.py holdout3_p2 [--seed 0]
 """
@@ -50,13 +51,18 @@ def main() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         post = torchshm.identify(problem, method="emulator", seed=args.seed, **args.options)
-    print("round " + " ".join(f"{title:>10}" for _, title in COLUMNS))
-    for row in post.diagnostics["rounds"]:
-        print(f"{int(row['round']):5d} " + " ".join(f"{row.get(key, np.nan):10.3g}" for key, _ in COLUMNS))
-    print(f"converged {post.converged}, own CPU {time.process_time() - cpu:.1f} s (model included)")
-    draws = np.asarray(post.samples)
     path = ROOT / "benchmarks" / "references" / f"{args.case}.json"
     ref = json.loads(path.read_text()) if path.exists() else None
+    print("round " + " ".join(f"{title:>10}" for _, title in COLUMNS) + ("  off [ref sd]" if ref else ""))
+    for row in post.diagnostics["rounds"]:
+        line = f"{int(row['round']):5d} " + " ".join(f"{row.get(key, np.nan):10.3g}" for key, _ in COLUMNS)
+        if ref is not None:  # the round's posterior means against the reference's, in its sds
+            off = [abs(row[f"{n}/mean"] - ref["mean"][j]) / ref["sd"][j] for j, n in enumerate(ref["names"])
+                   if n in problem.physical_names and f"{n}/mean" in row]
+            line += f"  {max(off, default=np.nan):12.3g}"
+        print(line)
+    print(f"converged {post.converged}, own CPU {time.process_time() - cpu:.1f} s (model included)")
+    draws = np.asarray(post.samples)
     for i, name in enumerate(post.names):
         line = f"{name:>12}: {draws[:, i].mean():.4g} ± {draws[:, i].std():.3g}"
         if ref is not None and name in ref["names"]:
