@@ -16,7 +16,9 @@ The emulator's defaults were later changed while :data:`HOLDOUT`'s results were 
 :data:`FRESH` is a second set, drawn on 2026-11-26 from another seed with no method change
 after it: 2, 3, 4 and 6 physical parameters in turn, some of the 2-parameter ones plates read
 as image-correlation fields (``scripts/make_references.py --fresh``,
-``scripts/bench_identification.py --fresh``).
+``scripts/bench_identification.py --fresh``). :data:`THIRD` (a localised damage, five
+parameters) and :data:`EDGE` (one parameter, and six to eight) followed, each drawn after the
+last method change and run once (``--third``, ``--edge``).
 """
 
 from __future__ import annotations
@@ -214,7 +216,7 @@ HOLDOUT: dict[str, Case] = generate()
 FRESH: dict[str, Case] = generate_fresh()
 #: the third held-out set, drawn after the capped-posterior average (2026-11-26, 21:00 UTC)
 THIRD: dict[str, Case] = generate_third()
-#: the fourth held-out set: 1, 7 and 8 physical parameters (2026-11-27, 00:00 UTC)
+#: the fourth held-out set: 1, 6, 7 and 8 physical parameters (drawn 2026-11-26, 23:35 UTC)
 EDGE: dict[str, Case] = generate_edge()
 #: every case a benchmark row or reference may name: the suite's and the three held-out sets'
 KNOWN: dict[str, Case] = {**CASES, **HOLDOUT, **FRESH, **THIRD, **EDGE}
