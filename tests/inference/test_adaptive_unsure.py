@@ -96,3 +96,23 @@ def test_an_unsure_emulator_widens_and_covers() -> None:
     assert out.draws.std() > 1.5 * draws.std()
     # the exact mean within two of the averaged posterior's sds
     assert abs(out.draws.mean() - mean) < 2.0 * out.draws.std()
+
+
+def test_too_few_effective_draws_make_the_average_again_on_more_points(monkeypatch) -> None:
+    """Below ``TARGET_ESS`` effective draws the average is made on proportionally more points
+    (at most ``MAX_POINTS``): the effective draws grow about in proportion."""
+    import torchshm.inference.adaptive.unsure as unsure
+
+    problem, model = _problem()
+    log_joint = _log_joint(problem, model, np.linspace(0.0, 1.0, 25))
+    draws = _plug_in_draws(log_joint)
+    box, plausible = np.array([[0.0, 1.0]]), np.array([[0.01, 0.99]])
+    once = average_over_errors(log_joint, draws, box, plausible, 2000, 0)
+    assert once is not None and once.n_points == unsure.N_POINTS  # enough draws: one pass
+    monkeypatch.setattr(unsure, "TARGET_ESS", 4.0 * once.ess)
+    monkeypatch.setattr(unsure, "MAX_POINTS", 2500)
+    again = average_over_errors(log_joint, draws, box, plausible, 2000, 0)
+    assert again is not None and again.n_points == 2500  # 4 N_POINTS, capped at MAX_POINTS
+    assert again.ess == pytest.approx(2.5 * once.ess, rel=0.2)
+    mean, sd = _exact_moments(problem)
+    assert abs(again.draws.mean() - mean) < 0.15 * sd

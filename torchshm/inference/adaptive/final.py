@@ -15,7 +15,7 @@ from torchshm.inference.adaptive.explore import N_SOBOL
 from torchshm.inference.adaptive.mixture import Mixture, fit_mixture
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint
 from torchshm.inference.adaptive.runs import RunSet
-from torchshm.inference.adaptive.unsure import N_POINTS, average_over_errors
+from torchshm.inference.adaptive.unsure import average_over_errors
 from torchshm.inference.posterior import Posterior
 from torchshm.inference.tensorboard import RunTrace
 
@@ -113,7 +113,8 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
         "evidence_ess": result.ess, "evidence_khat": result.khat, "posterior_draws": source,
         "averaged_over_errors": None if averaged is None else {
             "ess": averaged.ess, "log_evidence_spread": averaged.log_z_spread,
-            "error_sd": averaged.error_sd, "n_points": N_POINTS, "n_fields": averaged.n_fields},
+            "error_sd": averaged.error_sd, "n_points": averaged.n_points,
+            "n_fields": averaged.n_fields},
         "n_walkers": extra["n_walkers"],
         "wall_time_s": time.perf_counter() - extra["t0"],
         "final_cpu_time_s": time.process_time() - cpu,
