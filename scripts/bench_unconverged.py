@@ -71,6 +71,7 @@ def one_run(name: str, beyond: int, seed: int) -> dict[str, Any]:
             "worst": ref["identified"][int(np.argmax(own))],
             "err_ref_sd": float((np.abs(mean - ref_mean) / ref_sd).max()),
             "sd_ratio_min": float(ratio.min()), "sd_ratio_max": float(ratio.max()),
+            "averaged": post.diagnostics.get("averaged_over_errors"),  # ESS, points, draws
             "cpu_s": time.process_time() - t0}
 
 
