@@ -99,8 +99,9 @@ def test_an_unsure_emulator_widens_and_covers() -> None:
 
 
 def test_too_few_effective_draws_make_the_average_again_on_more_points(monkeypatch) -> None:
-    """Below ``TARGET_ESS`` effective draws the average is made on proportionally more points
-    (at most ``MAX_POINTS``): the effective draws grow about in proportion."""
+    """Below ``MIN_ESS`` effective draws the average is made again on proportionally more
+    points to reach ``TARGET_ESS`` (at most ``MAX_POINTS``): the effective draws grow about in
+    proportion."""
     import torchshm.inference.adaptive.unsure as unsure
 
     problem, model = _problem()
@@ -109,6 +110,7 @@ def test_too_few_effective_draws_make_the_average_again_on_more_points(monkeypat
     box, plausible = np.array([[0.0, 1.0]]), np.array([[0.01, 0.99]])
     once = average_over_errors(log_joint, draws, box, plausible, 2000, 0)
     assert once is not None and once.n_points == unsure.N_POINTS  # enough draws: one pass
+    monkeypatch.setattr(unsure, "MIN_ESS", 2.0 * once.ess)
     monkeypatch.setattr(unsure, "TARGET_ESS", 4.0 * once.ess)
     monkeypatch.setattr(unsure, "MAX_POINTS", 2500)
     again = average_over_errors(log_joint, draws, box, plausible, 2000, 0)

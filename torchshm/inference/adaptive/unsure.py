@@ -38,8 +38,11 @@ if TYPE_CHECKING:
 
 #: proposal points at which the error is drawn jointly (an `N x N` Cholesky factor)
 N_POINTS = 1000
-#: effective draws the average aims at: below it the average is made again on more points
-#: (in proportion, at most :data:`MAX_POINTS`). On an eight-parameter case capped at 600 runs
+#: fewest effective draws of the average on :data:`N_POINTS` points: below it the average is
+#: made again on more points, in proportion to reach :data:`TARGET_ESS` (at most
+#: :data:`MAX_POINTS`)
+MIN_ESS = 200.0
+#: effective draws the average made again aims at. On an eight-parameter case capped at 600 runs
 #: (``edge3_p8``, ``docs/benchmarks.md``) 1,000 points kept 106 effective draws, and the
 #: average came out narrower than the plug-in posterior it should widen (a spring's sd 0.77 of
 #: the reference's against 1.49); on 4,000 points, 364 effective draws, sds 0.86-1.13.
@@ -137,14 +140,14 @@ def average_over_errors(log_joint: EmulatedLogJoint, draws: np.ndarray, hard: np
     Returns:
         The averaged posterior, or None when no proposal point has a finite log joint. Made
         on :data:`N_POINTS` points, and again on more when that keeps fewer than
-        :data:`TARGET_ESS` effective draws (many parameters: the proposal's volume grows
+        :data:`MIN_ESS` effective draws (many parameters: the proposal's volume grows
         faster than the posterior's).
     """
     rng = np.random.default_rng([seed, 41])
     mix = fit_mixture(draws, sampling.transformer(hard, plausible), seed)
     proposal = mix.defensive(plausible, WIDEN, DEFENSIVE, SLABS)
     out = _average(log_joint, proposal, N_POINTS, n, rng)
-    if out is None or out.ess >= TARGET_ESS:
+    if out is None or out.ess >= MIN_ESS:
         return out
     size = min(MAX_POINTS, int(np.ceil(N_POINTS * TARGET_ESS / max(out.ess, 1.0))))
     return _average(log_joint, proposal, size, n, rng)  # the ESS grows with the points
@@ -177,4 +180,5 @@ def _average(log_joint: EmulatedLogJoint, proposal: Mixture, size: int, n: int,
                     float(np.nanmedian(sd[heavy])), n_fields, int(points.shape[0]))
 
 
-__all__ = ["Averaged", "MAX_POINTS", "N_FIELDS", "N_POINTS", "TARGET_ESS", "average_over_errors", "error_fields", "fields_for"]
+__all__ = ["Averaged", "MAX_POINTS", "MIN_ESS", "N_FIELDS", "N_POINTS", "TARGET_ESS",
+           "average_over_errors", "error_fields", "fields_for"]
