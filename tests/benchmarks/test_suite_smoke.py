@@ -73,10 +73,10 @@ def test_trace_script_prints_the_rounds() -> None:
     """``scripts/trace_emulator.py``: the stop rule's terms per round, then the result beside
     the case's reference (a small cap: a check that it runs)."""
     proc = subprocess.run(
-        [sys.executable, str(ROOT / "scripts" / "trace_emulator.py"), "holdout9_p2", "--options",
-         '{"max_model_evaluations": 10}'], cwd=ROOT, capture_output=True, text=True, timeout=600)
+        [sys.executable, str(ROOT / "scripts" / "trace_emulator.py"), "edge2_p1", "--options",
+         '{"max_model_evaluations": 5}'], cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-2000:]
     lines = proc.stdout.splitlines()
     assert lines[0].split()[:3] == ["round", "runs", "TV"] and "settled" in lines[0]
-    assert any(line.startswith("converged False") for line in lines)  # the cap of 10 ends it
+    assert any(line.startswith("converged False") for line in lines)  # the cap of 5 ends it
     assert any("reference" in line for line in lines)
