@@ -218,8 +218,11 @@ FRESH: dict[str, Case] = generate_fresh()
 THIRD: dict[str, Case] = generate_third()
 #: the fourth held-out set: 1, 6, 7 and 8 physical parameters (drawn 2026-11-26, 23:35 UTC)
 EDGE: dict[str, Case] = generate_edge()
+#: the held-out sets by their command-line flag (``--holdout``, ``--fresh``, ``--third``,
+#: ``--edge`` of the benchmark and reference scripts)
+HELD_OUT: dict[str, dict[str, Case]] = {"holdout": HOLDOUT, "fresh": FRESH, "third": THIRD, "edge": EDGE}
 #: every case a benchmark row or reference may name: the suite's and the three held-out sets'
 KNOWN: dict[str, Case] = {**CASES, **HOLDOUT, **FRESH, **THIRD, **EDGE}
 
-__all__ = ["EDGE", "EDGE_SEED", "N_EDGE", "FRESH", "FRESH_SEED", "HOLDOUT", "KNOWN", "N_CASES", "N_FRESH", "N_THIRD", "SEED", "THIRD",
+__all__ = ["EDGE", "EDGE_SEED", "HELD_OUT", "N_EDGE", "FRESH", "FRESH_SEED", "HOLDOUT", "KNOWN", "N_CASES", "N_FRESH", "N_THIRD", "SEED", "THIRD",
            "THIRD_SEED", "generate", "generate_edge", "generate_fresh", "generate_third"]

@@ -41,7 +41,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.cases import case_hash, make_problem  # noqa: E402
 from benchmarks.catalog import CASES  # noqa: E402
-from benchmarks.holdout import EDGE, FRESH, HOLDOUT, KNOWN, THIRD  # noqa: E402
+from benchmarks.holdout import HELD_OUT, KNOWN  # noqa: E402
 from benchmarks.methods import TimedModel, run_method  # noqa: E402
 
 REFS = ROOT / "benchmarks" / "references"
@@ -50,13 +50,13 @@ BEGIN, END = "<!-- suite:begin -->", "<!-- suite:end -->"
 #: each held-out set (``--holdout``, ``--fresh``, ``--third``, ``--edge``): its cases, and the markers and
 #: title of its own section of docs/benchmarks.md
 SETS = {
-    "holdout": (HOLDOUT, ("<!-- holdout:begin -->", "<!-- holdout:end -->"),
+    "holdout": (HELD_OUT["holdout"], ("<!-- holdout:begin -->", "<!-- holdout:end -->"),
                 "Held-out cases (`scripts/bench_identification.py --holdout`)"),
-    "fresh": (FRESH, ("<!-- fresh:begin -->", "<!-- fresh:end -->"),
+    "fresh": (HELD_OUT["fresh"], ("<!-- fresh:begin -->", "<!-- fresh:end -->"),
               "A second held-out set (`scripts/bench_identification.py --fresh`)"),
-    "third": (THIRD, ("<!-- third:begin -->", "<!-- third:end -->"),
+    "third": (HELD_OUT["third"], ("<!-- third:begin -->", "<!-- third:end -->"),
               "A third held-out set (`scripts/bench_identification.py --third`)"),
-    "edge": (EDGE, ("<!-- edge:begin -->", "<!-- edge:end -->"),
+    "edge": (HELD_OUT["edge"], ("<!-- edge:begin -->", "<!-- edge:end -->"),
              "A fourth held-out set: 1, 7 and 8 parameters (`scripts/bench_identification.py --edge`)"),
 }
 METHODS = ("emulator", "vbmc", "gpry")

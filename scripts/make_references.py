@@ -36,7 +36,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.cases import Case, case_hash, make_problem, truth_vector  # noqa: E402
 from benchmarks.catalog import CASES  # noqa: E402
-from benchmarks.holdout import EDGE, FRESH, HOLDOUT, KNOWN, THIRD  # noqa: E402
+from benchmarks.holdout import HELD_OUT, KNOWN  # noqa: E402
 from benchmarks.reference import direct_log_joint, find_modes, importance, run_chain  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "references"
@@ -121,8 +121,10 @@ def rehash(name: str) -> None:
 def _names(args: argparse.Namespace) -> list[str]:
     """The cases the command line names: a whole set (``--all``, ``--holdout``, ``--fresh``,
     ``--third``, ``--edge``) or the ``--case`` ones."""
-    return (list(CASES) if args.all else list(HOLDOUT) if args.holdout else list(FRESH) if args.fresh
-            else list(THIRD) if args.third else list(EDGE) if args.edge else list(args.case))
+    if args.all:
+        return list(CASES)
+    chosen = [list(cases) for flag, cases in HELD_OUT.items() if getattr(args, flag)]
+    return chosen[0] if chosen else list(args.case)
 
 
 def main() -> None:
