@@ -74,3 +74,75 @@ def test_draws_have_the_covariance_of_the_density() -> None:
     want = 100.0**2 * u @ u.T + 25.0 * np.eye(n)
     got = np.cov(draws[:, 0].numpy().T)
     assert np.abs(got - want).max() < 0.05 * want.max()
+
+
+def _dense_log_density(r: torch.Tensor, d: torch.Tensor, u: torch.Tensor, sa: torch.Tensor) -> torch.Tensor:
+    """The oracle: N(0, sa² U Uᵀ + diag(d)) in torch, one Cholesky per load case, summed."""
+    cov = sa**2 * u @ u.T + torch.diag_embed(d)
+    return torch.distributions.MultivariateNormal(torch.zeros_like(r), covariance_matrix=cov).log_prob(r).sum()
+
+
+def test_gradients_are_the_dense_gaussians(rng: np.random.Generator) -> None:
+    """Autograd through the elimination = autograd through the dense Gaussian (1e-7 relative),
+    with respect to the residuals, the diagonal (a different one per load case: sigma_m > 0)
+    and sigma_a, on a field with a hole."""
+    x = np.delete(_field(), [17, 18, 40], axis=0)
+    n = x.shape[0]
+    u = torch.as_tensor(upscaled.operator(x, ELEMENT).toarray())
+    r0 = torch.as_tensor(rng.normal(0.0, 300.0, (2, n)))
+    d0 = torch.as_tensor(20.0**2 + (0.05 * rng.normal(300.0, 200.0, (2, n))) ** 2)
+    sa0 = torch.tensor(250.0, dtype=torch.float64)
+    got_in = [t.clone().requires_grad_(True) for t in (r0, d0, sa0)]
+    got = upscaled.log_density(got_in[0][None], got_in[1][None], torch.as_tensor(x), got_in[2][None],
+                               torch.tensor([ELEMENT], dtype=torch.float64))[0]
+    got.backward()
+    want_in = [t.clone().requires_grad_(True) for t in (r0, d0, sa0)]
+    want = _dense_log_density(want_in[0], want_in[1], u, want_in[2])
+    want.backward()
+    assert float(got.detach()) == pytest.approx(float(want.detach()), rel=1e-9)
+    for g, w in zip(got_in, want_in):
+        np.testing.assert_allclose(g.grad.numpy(), w.grad.numpy(), rtol=1e-7, atol=1e-7 * float(w.grad.abs().max()))
+
+
+def test_gradient_in_eta_reaches_the_emulator(rng: np.random.Generator) -> None:
+    """``log_likelihood``'s gradient in eta (what the emulator's error model and exploration
+    read, ``EmulatedLogJoint.gradient``) is Σ⁻¹ (y - eta) with sigma_m = 0, not zero."""
+    x = _field(4, 3)
+    n = x.shape[0]
+    u = upscaled.operator(x, ELEMENT).toarray()
+    y, eta0 = rng.normal(0.0, 200.0, (1, n)), rng.normal(0.0, 200.0, (1, 1, n))
+    eta = torch.tensor(eta0, requires_grad=True)
+    value = log_likelihood(torch.tensor(y), eta, torch.tensor(x), "upscaled", torch.tensor([150.0]),
+                           torch.tensor([ELEMENT]), sigma_m=0.0, sigma_e=10.0)
+    (grad,) = torch.autograd.grad(value.sum(), eta)
+    want = np.linalg.solve(150.0**2 * u @ u.T + 100.0 * np.eye(n), (y - eta0[0]).T).T
+    np.testing.assert_allclose(grad[0].numpy(), want, rtol=1e-7, atol=1e-9)
+
+
+def test_length_gradient_is_the_finite_difference(rng: np.random.Generator) -> None:
+    """The bilinear weights follow ``length`` by autograd: the derivative equals a central
+    difference (within one cell, where the grid does not change) to 1e-5 relative."""
+    x = torch.as_tensor(_field(4, 4))
+    r = torch.as_tensor(rng.normal(0.0, 100.0, (1, 1, x.shape[0])))
+    d = torch.full_like(r, 25.0)
+    sa = torch.tensor([80.0], dtype=torch.float64)
+    ell = torch.tensor([ELEMENT * 1.01], dtype=torch.float64, requires_grad=True)
+    (grad,) = torch.autograd.grad(upscaled.log_density(r, d, x, sa, ell)[0], ell)
+    h = ELEMENT * 1e-6
+    up = upscaled.log_density(r, d, x, sa, ell.detach() + h)[0]
+    down = upscaled.log_density(r, d, x, sa, ell.detach() - h)[0]
+    assert float(grad[0]) == pytest.approx(float(up - down) / (2 * h), rel=1e-5)
+
+
+def test_a_fine_element_grid_takes_the_sparse_lu(rng: np.random.Generator) -> None:
+    """An element side a tenth of the points' pitch (a grid of ~100 elements a point) goes
+    through the sparse LU of the elements seen, and is still the dense Gaussian."""
+    x = _field(3, 3)[::2]
+    n = x.shape[0]
+    ell = ELEMENT / 30.0
+    u = upscaled.operator(x, ell).toarray()
+    r = rng.normal(0.0, 50.0, (1, n))
+    got = upscaled.log_density(torch.tensor(r[None]), torch.full((1, 1, n), 4.0), torch.tensor(x),
+                               torch.tensor([30.0]), torch.tensor([ell]))
+    want = multivariate_normal(np.zeros(n), 900.0 * u @ u.T + 4.0 * np.eye(n)).logpdf(r[0])
+    assert float(got[0]) == pytest.approx(want, rel=1e-9)

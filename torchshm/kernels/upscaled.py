@@ -25,29 +25,54 @@ from torchshm.kernels.base import Kernel, as_float64
 SNAP = 1e-4
 
 
-def operator(x: np.ndarray, length: float) -> sparse.csr_matrix:
-    """``U`` `n x N`: bilinear weights from the element centres (pitch ``length`` [m]) to the
-    points ``x`` `n x 2` [m]; elements that no point sees are left out.
+def cells(x: Tensor, length: Tensor | float) -> tuple[tuple[int, int], Tensor, Tensor]:
+    """Each point's four element centres and bilinear weights on the whole element grid.
+
+    Args:
+        x: `n x 2` points [m]; length: the element side [m] (0-d; the weights follow it by
+            autograd, the grid's shape and each point's cell do not).
+
+    Returns:
+        ``(shape, elements, weights)``: the `(Nx, Ny)` element centres from the points' smallest
+        ``x`` and ``y`` (pitch ``length``), the `n x 4` element numbers ``i Ny + j`` (a clipped
+        corner repeats one) and their `n x 4` weights (summing to 1).
 
     Raises:
         ValueError: for points that are not `n x 2` or a non-positive ``length``.
     """
+    x = torch.as_tensor(x, dtype=torch.float64)
+    length = torch.as_tensor(length, dtype=torch.float64)
     if x.ndim != 2 or x.shape[1] != 2:
-        raise ValueError(f"upscaled field noise: points must be n x 2 coordinates, got {x.shape}")
-    if not length > 0:
-        raise ValueError(f"upscaled field noise: the element side (length) must be > 0 m, got {length}")
-    f = (x - x.min(axis=0)) / length  # element-centre grid coordinates
-    shape = np.floor(f.max(axis=0) + SNAP).astype(int) + 1  # element centres each way
-    base = np.minimum(np.floor(f + SNAP).astype(int), np.maximum(shape - 2, 0))
-    t = np.clip(f - base, 0.0, 1.0)
-    rows, cols, vals = [], [], []
+        raise ValueError(f"upscaled field noise: points must be n x 2 coordinates, got {tuple(x.shape)}")
+    if not float(length.detach()) > 0:
+        raise ValueError(f"upscaled field noise: the element side (length) must be > 0 m, got {float(length.detach())}")
+    f = (x - x.min(dim=0).values) / length  # element-centre grid coordinates
+    shape = (f.detach().max(dim=0).values + SNAP).floor().long() + 1  # element centres each way
+    base = torch.minimum((f.detach() + SNAP).floor().long(), (shape - 2).clamp_min(0))
+    t = (f - base).clamp(0.0, 1.0)
+    elements, weights = [], []
     for di, dj, w in ((0, 0, (1 - t[:, 0]) * (1 - t[:, 1])), (1, 0, t[:, 0] * (1 - t[:, 1])),
                       (0, 1, (1 - t[:, 0]) * t[:, 1]), (1, 1, t[:, 0] * t[:, 1])):
-        ei, ej = np.minimum(base[:, 0] + di, shape[0] - 1), np.minimum(base[:, 1] + dj, shape[1] - 1)
-        rows.append(np.arange(x.shape[0]))
-        cols.append(ei.astype(np.int64) * int(shape[1]) + ej)
-        vals.append(w)
-    rows_, cols_, vals_ = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+        ei = torch.clamp(base[:, 0] + di, max=int(shape[0]) - 1)
+        ej = torch.clamp(base[:, 1] + dj, max=int(shape[1]) - 1)
+        elements.append(ei * int(shape[1]) + ej)
+        weights.append(w)
+    return (int(shape[0]), int(shape[1])), torch.stack(elements, 1), torch.stack(weights, 1)
+
+
+def operator(x: np.ndarray, length: float) -> sparse.csr_matrix:
+    """``U`` `n x N`: bilinear weights from the element centres (pitch ``length`` [m]) to the
+    points ``x`` `n x 2` [m] (:func:`cells`); elements that no point sees are left out.
+
+    Raises:
+        ValueError: for points that are not `n x 2` or a non-positive ``length``.
+    """
+    x = np.asarray(x)
+    if x.ndim != 2 or x.shape[1] != 2:
+        raise ValueError(f"upscaled field noise: points must be n x 2 coordinates, got {x.shape}")
+    _, elements, weights = cells(torch.from_numpy(np.ascontiguousarray(x, dtype=np.float64)), float(length))
+    rows_ = np.repeat(np.arange(x.shape[0]), 4)
+    cols_, vals_ = elements.numpy().reshape(-1), weights.numpy().reshape(-1)
     keep = vals_ != 0.0
     # number the elements some point sees (at most 4 n), never the whole grid: an element side
     # far below the points' pitch would otherwise make a grid of ~(extent / length)² columns

@@ -1,6 +1,8 @@
 """Multifrontal elimination of ``M = Q + diag(w)`` over a grid's nested dissection, in torch.
 
-``Q = Qx ⊗ Qy / sigma_a**2`` (:mod:`torchshm.likelihood.lattice`). The fronts of
+``Q = Qx ⊗ Qy / sigma_a**2`` (:mod:`torchshm.likelihood.lattice`), or any symmetric matrix
+of the same nine-point coupling given by its entries (``stencil``: the upscaled field's element
+matrix, :mod:`torchshm.likelihood.upscaled`). The fronts of
 :func:`torchshm.likelihood.lattice_plan.plan` are eliminated group by group, children first,
 each group in batched dense calls. A group's *joined sources* hold, per member, its children's
 updates on their rings (written there by the children) and ``Q``'s entries of its eliminated
@@ -26,6 +28,14 @@ def _entries(u: Tensor, v: Tensor, shape: tuple[int, int], factors: tuple[Tensor
     """``Q[u, v]`` for coupled nodes ``u``, ``v`` (any shape, node numbers ``i Ny + j``)."""
     (nx, ny), (rx, sx, ry, sy) = shape, factors
     return _axis_entries(u // ny, v // ny, nx, rx, sx) * _axis_entries(u % ny, v % ny, ny, ry, sy) * scale
+
+
+def _stencil_entries(u: Tensor, v: Tensor, ny: int, stencil: Tensor) -> Tensor:
+    """``M[u, v]`` for coupled nodes ``u``, ``v`` from the `N x 9` entries of each node's row at
+    the offsets :data:`~torchshm.likelihood.lattice_plan.STENCIL` (``(di, dj)`` at ``3 (di + 1) +
+    dj + 1``)."""
+    code = 3 * (v // ny - u // ny + 1) + (v % ny - u % ny + 1)
+    return stencil.reshape(-1)[u * 9 + code]
 
 
 def _axis_entries(i: Tensor, k: Tensor, size: int, rho: Tensor, s: Tensor) -> Tensor:
@@ -92,9 +102,11 @@ def _gather(joined: Tensor, assembly: tuple[Tensor, Tensor, Tensor]) -> Tensor:
     return out.index_add_(1, places, joined.index_select(1, entries)) if places.numel() else out
 
 
-def eliminate(shape: tuple[int, int], factors: tuple[Tensor, Tensor, Tensor, Tensor], scale: Tensor,
-              weight: Tensor, rhs: Tensor) -> tuple[Tensor, Tensor]:
-    """``log det M`` and ``bᵀ M⁻¹ b`` for ``M = Qx ⊗ Qy * scale + diag(weight)``.
+def eliminate(shape: tuple[int, int], factors: tuple[Tensor, Tensor, Tensor, Tensor] | None,
+              scale: Tensor | None, weight: Tensor | None, rhs: Tensor,
+              stencil: Tensor | None = None) -> tuple[Tensor, Tensor]:
+    """``log det M`` and ``bᵀ M⁻¹ b`` for ``M = Qx ⊗ Qy * scale + diag(weight)``, or for the
+    matrix of nine-point ``stencil`` entries.
 
     Args:
         shape: ``(Nx, Ny)`` grid nodes.
@@ -102,6 +114,10 @@ def eliminate(shape: tuple[int, int], factors: tuple[Tensor, Tensor, Tensor, Ten
         scale: ``1 / sigma_a**2`` (0-d tensor) [1/µε²].
         weight: `N` diagonal ``Aᵀ D⁻¹ 1`` [1/µε²]; rhs: `N x k` right-hand sides ``b = Aᵀ D⁻¹ r``
             [1/µε] (node ``i Ny + j``).
+        stencil: instead of ``factors``, ``scale`` and ``weight`` (None there): `N x 9` entries
+            of a symmetric positive definite ``M``, row ``i Ny + j`` at the columns of the
+            offsets ``(di, dj)`` of :data:`~torchshm.likelihood.lattice_plan.STENCIL`, in its
+            order (entries pointing off the grid are never read).
 
     Returns:
         ``log det M`` (0-d; +inf where a front is not positive definite in floating point) and
@@ -118,8 +134,10 @@ def eliminate(shape: tuple[int, int], factors: tuple[Tensor, Tensor, Tensor, Ten
     k = rhs.shape[1]
     joined: list[Tensor | None] = [None] * len(groups)  # per group: its children's updates and Q's entries
     joined_b: list[Tensor | None] = [None] * len(groups)
-    log_det, quad = weight.new_zeros(()), weight.new_zeros(k)
-    direct = not (torch.is_grad_enabled() and any(t.requires_grad for t in (*factors, scale, weight, rhs)))
+    like = weight if stencil is None else stencil
+    log_det, quad = like.new_zeros(()), like.new_zeros(k)
+    inputs = (rhs,) + ((*factors, scale, weight) if stencil is None else (stencil,))
+    direct = not (torch.is_grad_enabled() and any(t.requires_grad for t in inputs))
     for g, group in enumerate(groups):
         f, e = group.f, group.e
         nodes = torch.from_numpy(group.nodes(ny))  # G x f
@@ -134,21 +152,24 @@ def eliminate(shape: tuple[int, int], factors: tuple[Tensor, Tensor, Tensor, Ten
         own, width = offsets[g][-2], offsets[g][-1]
         own_b, width_b = sum(r.numel() for r in rings), sum(r.numel() for r in rings) + e + 1
         if joined[g] is None:  # a leaf: no child wrote here
-            joined[g], joined_b[g] = _buffers(nodes.shape[0], width, width_b, k, weight)
+            joined[g], joined_b[g] = _buffers(nodes.shape[0], width, width_b, k, like)
         step = max(1, CHUNK_ENTRIES // (f * f))
         for parent, first, count_p, col in goes[g] or [(-1, 0, nodes.shape[0], 0)]:
             for start in range(first, first + count_p, step):
                 chunk = nodes[start:min(start + step, first + count_p)]
                 count = chunk.shape[0]
                 rows = slice(start, start + count)
-                vals = _entries(chunk[:, a], chunk[:, b], shape, factors, scale) + torch.where(a == b, weight[chunk[:, a]], 0.0)
+                if stencil is None:
+                    vals = _entries(chunk[:, a], chunk[:, b], shape, factors, scale) + torch.where(a == b, weight[chunk[:, a]], 0.0)
+                else:
+                    vals = _stencil_entries(chunk[:, a], chunk[:, b], ny, stencil)
                 joined[g][rows, own:width - 1] = torch.cat([vals, vals[:, mirror]], 1)
                 joined_b[g][rows, own_b:own_b + e] = rhs[chunk[:, :e]]
                 top = _gather(joined[g][rows], into_rows).reshape(-1, e, f)  # the rows of E
                 vec = _gather(joined_b[g][rows], into_vec)
                 low, info = torch.linalg.cholesky_ex(top[:, :, :e])
                 if bool((info != 0).any()):  # not positive definite in floating point
-                    return weight.new_tensor(torch.inf), quad
+                    return like.new_tensor(torch.inf), quad
                 c = torch.linalg.solve_triangular(low, vec[:, :e], upper=False)
                 log_det = log_det + 2.0 * low.diagonal(dim1=-2, dim2=-1).log().sum()
                 quad = quad + c.square().sum((0, 1))
@@ -159,7 +180,7 @@ def eliminate(shape: tuple[int, int], factors: tuple[Tensor, Tensor, Tensor, Ten
                 ring = _gather(joined[g][rows], into_ring).reshape(-1, h, h)
                 if joined[parent] is None:
                     joined[parent], joined_b[parent] = _buffers(
-                        groups[parent].origin.shape[0], offsets[parent][-1], _width_b(groups[parent]), k, weight)
+                        groups[parent].origin.shape[0], offsets[parent][-1], _width_b(groups[parent]), k, like)
                 at_rows = slice(start - first, start - first + count)
                 dest = joined[parent][at_rows, col:col + h * h].view(count, h, h)
                 if direct:  # the update straight into the parent's sources

@@ -33,39 +33,142 @@ from scipy import sparse
 from scipy.sparse.linalg import splu
 from torch import Tensor
 
-from torchshm.kernels.upscaled import operator
+from torchshm.kernels.upscaled import cells, operator
+from torchshm.likelihood.lattice_frontal import eliminate
 
 LOG_2PI = math.log(2.0 * math.pi)
+
+
+#: the whole element grid is eliminated (torch, differentiable) while it has at most this many
+#: elements per point; a finer one (an element side far below the points' pitch, e.g. a
+#: ``length`` prior reaching towards 0) goes through SciPy's sparse LU of the elements that
+#: the points see, without gradients
+GRID_PER_POINT = 4
 
 
 def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length: Tensor) -> Tensor:
     """Log densities `B` of the residuals `B x L x n` [µε], summed over load cases.
 
+    With ``Q = I / sigma_a**2`` on the `N` element centres of the points' grid,
+    ``M = Q + Uᵀ D⁻¹ U`` has the nine-point coupling of neighbouring elements and is eliminated
+    exactly by the lattice form's multifrontal pass (:func:`~torchshm.likelihood.lattice_frontal.eliminate`):
+    ``log det Σ = Σ log d + log det M + N log sigma_a**2``, ``rᵀ Σ⁻¹ r = rᵀ D⁻¹ r - bᵀ M⁻¹ b``.
+    Plain torch on the CPU in float64, differentiable (autograd) with respect to the residuals,
+    the diagonal, ``sigma_a`` and ``length`` (through the bilinear weights). Load cases of a
+    vector with the same diagonal share one elimination. An element grid of more than
+    :data:`GRID_PER_POINT` elements per point takes the sparse LU instead (no gradients).
+
     Args:
         resid: ``y - eta`` `B x L x n` [µε]; noise: the diagonal `B x L x n` [µε²], > 0.
         x: `n x 2` coordinates [m]; sigma_a: `B` element sds [µε]; length: `B` element
-            sides [m] (the operator is built once per distinct value).
+            sides [m].
     """
-    r, d = resid.detach().cpu().numpy(), noise.detach().cpu().numpy()
-    xs, sa, ell = x.detach().cpu().numpy(), sigma_a.detach().cpu().numpy(), length.detach().cpu().numpy()
-    out = np.empty(r.shape[0])
-    ops: dict[float, sparse.csr_matrix] = {}
+    cpu = dict(device="cpu", dtype=torch.float64)
+    r, d, sa, ell = (t.to(**cpu) for t in (resid, noise, sigma_a, length))
+    xs = x.detach().to(**cpu)
+    n = r.shape[2]
+    grids: dict[float, tuple] = {}
+    out = []
     for b in range(r.shape[0]):
-        if float(ell[b]) not in ops:
-            ops[float(ell[b])] = operator(xs, float(ell[b]))
-        w = ops[float(ell[b])]
-        total = 0.0
-        for load in range(r.shape[1]):
-            if load == 0 or not np.array_equal(d[b, load], d[b, load - 1]):
-                inv = 1.0 / d[b, load]
-                lu = _factor(w, inv, float(sa[b]))
-                log_det = np.log(d[b, load]).sum() + np.log(np.abs(lu.U.diagonal())).sum()
-            z = inv * r[b, load]
-            rhs = w.T @ z
-            quad = r[b, load] @ z - sa[b] ** 2 * rhs @ lu.solve(rhs)
-            total += -0.5 * (quad + log_det + r.shape[2] * LOG_2PI)
-        out[b] = total
-    return torch.as_tensor(out, dtype=resid.dtype, device=resid.device)
+        if bool(sa[b] == 0):  # no element noise: the diagonal alone
+            out.append(-0.5 * (r[b].square() / d[b] + d[b].log() + LOG_2PI).sum())
+            continue
+        if ell[b].requires_grad:
+            grid = cells(xs, ell[b])
+        else:
+            grid = grids.get(float(ell[b])) or grids.setdefault(float(ell[b]), cells(xs, ell[b].detach()))
+        (nx, ny), elements, weights = grid
+        if nx * ny > GRID_PER_POINT * n:
+            out.append(r.new_tensor(_sparse_lu(r[b], d[b], xs.numpy(), float(sa[b].detach()), float(ell[b].detach()))))
+            continue
+        total = r.new_zeros(())
+        for same in _same_noise(d[b]):
+            inv = 1.0 / d[b, same[0]]
+            stencil = _element_matrix(elements, weights, inv, (nx, ny), sa[b])
+            rhs = _element_rhs(elements, weights, (inv * r[b, same]).T, (nx, ny))
+            log_det_m, bmb = eliminate((nx, ny), None, None, None, rhs, stencil=stencil)
+            quad = (r[b, same].square() * inv).sum(-1) - bmb
+            log_det = d[b, same[0]].log().sum() + log_det_m + nx * ny * sa[b].square().log()
+            total = total - 0.5 * (quad.sum() + len(same) * (log_det + n * LOG_2PI))
+        out.append(total)
+    return torch.stack(out).to(device=resid.device, dtype=resid.dtype)
+
+
+#: the corners of a cell ``(di, dj)`` in the order of :func:`~torchshm.kernels.upscaled.cells`
+CORNERS = ((0, 0), (1, 0), (0, 1), (1, 1))
+
+
+def _element_matrix(elements: Tensor, weights: Tensor, inv: Tensor, shape: tuple[int, int],
+                    sigma_a: Tensor) -> Tensor:
+    """`N x 9` entries of ``M = I / sigma_a**2 + Uᵀ diag(inv) U`` on the element grid, each row at
+    the offsets of :data:`~torchshm.likelihood.lattice_plan.STENCIL` (bilinear weights couple the
+    four elements of a cell: neighbours, diagonal ones included).
+
+    The points' products ``w_a w_b / d`` are first summed per cell (one row of 16 per point),
+    then each corner pair's cell sums are added to the grid's rows as one shifted slice."""
+    nx, ny = shape
+    pair = (weights[:, :, None] * weights[:, None, :] * inv[:, None, None]).reshape(-1, 16)
+    diag = torch.zeros(9, dtype=inv.dtype)
+    diag[4] = 1.0
+    if nx < 2 or ny < 2:  # a line of elements: corners clipped onto each other, point by point
+        ei, ej = elements // ny, elements % ny
+        code = 3 * (ei[:, None, :] - ei[:, :, None] + 1) + (ej[:, None, :] - ej[:, :, None] + 1)
+        flat = inv.new_zeros(nx * ny * 9).index_add(0, (elements[:, :, None] * 9 + code).reshape(-1), pair.reshape(-1))
+        return flat.reshape(nx * ny, 9) + diag * sigma_a.square().reciprocal()
+    sums = inv.new_zeros(nx * ny, 16).index_add(0, elements[:, 0], pair).reshape(nx, ny, 4, 4)[: nx - 1, : ny - 1]
+    out = inv.new_zeros(nx, ny, 9)
+    for a, (ai, aj) in enumerate(CORNERS):
+        for b, (bi, bj) in enumerate(CORNERS):
+            code = 3 * (bi - ai + 1) + (bj - aj + 1)
+            out[ai:ai + nx - 1, aj:aj + ny - 1, code] += sums[:, :, a, b]
+    return out.reshape(nx * ny, 9) + diag * sigma_a.square().reciprocal()
+
+
+def _element_rhs(elements: Tensor, weights: Tensor, values: Tensor, shape: tuple[int, int]) -> Tensor:
+    """``Uᵀ v`` `N x k` for point values ``values`` `n x k` (cell sums, then shifted slices, as
+    :func:`_element_matrix`)."""
+    nx, ny = shape
+    k = values.shape[1]
+    spread = weights[:, :, None] * values[:, None, :]  # n x 4 x k
+    if nx < 2 or ny < 2:
+        return values.new_zeros(nx * ny, k).index_add(0, elements.reshape(-1), spread.reshape(-1, k))
+    sums = values.new_zeros(nx * ny, 4 * k).index_add(0, elements[:, 0], spread.reshape(-1, 4 * k))
+    sums = sums.reshape(nx, ny, 4, k)[: nx - 1, : ny - 1]
+    out = values.new_zeros(nx, ny, k)
+    for a, (ai, aj) in enumerate(CORNERS):
+        out[ai:ai + nx - 1, aj:aj + ny - 1] += sums[:, :, a]
+    return out.reshape(nx * ny, k)
+
+
+def _same_noise(noise: Tensor) -> list[list[int]]:
+    """Load cases (rows of `L x n` ``noise``) grouped by equal diagonals, in order."""
+    groups: list[list[int]] = []
+    for load in range(noise.shape[0]):
+        for group in groups:
+            if torch.equal(noise[group[0]], noise[load]):
+                group.append(load)
+                break
+        else:
+            groups.append([load])
+    return groups
+
+
+def _sparse_lu(resid: Tensor, noise: Tensor, x: np.ndarray, sigma_a: float, length: float) -> float:
+    """The log density of one vector's residuals `L x n` through a sparse LU of ``I + sigma_a**2
+    Uᵀ D⁻¹ U`` over the elements the points see (NumPy/SciPy, no gradients)."""
+    r, d = resid.detach().numpy(), noise.detach().numpy()
+    w = operator(x, length)
+    total = 0.0
+    for load in range(r.shape[0]):
+        if load == 0 or not np.array_equal(d[load], d[load - 1]):
+            inv = 1.0 / d[load]
+            lu = _factor(w, inv, sigma_a)
+            log_det = np.log(d[load]).sum() + np.log(np.abs(lu.U.diagonal())).sum()
+        z = inv * r[load]
+        rhs = w.T @ z
+        quad = r[load] @ z - sigma_a**2 * rhs @ lu.solve(rhs)
+        total += -0.5 * (quad + log_det + r.shape[1] * LOG_2PI)
+    return total
 
 
 def sample(x: Tensor, sigma_a: Tensor, length: Tensor, n_loads: int, generator: torch.Generator,
