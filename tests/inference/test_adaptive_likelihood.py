@@ -53,3 +53,16 @@ def test_sd_far_from_the_posterior_matches_a_monte_carlo(kernel: str, sigma_a: f
         float(np.asarray(problem.log_prior(row)).reshape(-1)[0]) + log_joint.at(mean, None, rows)[0], abs=1e-9)
     # the delta method against 4,000 exact evaluations: within 15 % (the sampling error is 2 %)
     assert sd[0] == pytest.approx(draws.std(), rel=0.15)
+
+
+def test_a_likelihood_without_gradient_is_said_once(caplog, monkeypatch) -> None:
+    """A form that returns constants (kernel 'upscaled' through its sparse LU) leaves the error
+    model without ∂ℓ/∂η: one warning per process says the sd is understated, and names the way out."""
+    from torchshm.inference.adaptive import likelihood
+
+    monkeypatch.setattr(likelihood, "_WARNED_NO_GRADIENT", False)
+    with caplog.at_level("WARNING", logger=likelihood.__name__):
+        likelihood._warn_no_gradient("upscaled")
+        likelihood._warn_no_gradient("upscaled")
+    said = [r.getMessage() for r in caplog.records if "no gradient" in r.getMessage()]
+    assert len(said) == 1 and "understates" in said[0] and "method='vbmc'" in said[0]

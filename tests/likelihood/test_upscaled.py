@@ -135,7 +135,7 @@ def test_length_gradient_is_the_finite_difference(rng: np.random.Generator) -> N
 
 
 def test_a_fine_element_grid_takes_the_sparse_lu(rng: np.random.Generator) -> None:
-    """An element side a tenth of the points' pitch (a grid of ~100 elements a point) goes
+    """An element side a tenth of the points' pitch (a grid of ~100 elements a point, above GRID_PER_POINT) goes
     through the sparse LU of the elements seen, and is still the dense Gaussian."""
     x = _field(3, 3)[::2]
     n = x.shape[0]
@@ -146,3 +146,18 @@ def test_a_fine_element_grid_takes_the_sparse_lu(rng: np.random.Generator) -> No
                                torch.tensor([30.0]), torch.tensor([ell]))
     want = multivariate_normal(np.zeros(n), 900.0 * u @ u.T + 4.0 * np.eye(n)).logpdf(r[0])
     assert float(got[0]) == pytest.approx(want, rel=1e-9)
+
+
+def test_draws_are_sigma_a_u_z_in_the_generators_order_and_differentiable() -> None:
+    """The draws are ``sigma_a U z`` with `z` the generator's next `L x N` normals of the elements
+    seen (the sparse product's numbers, 1e-12), and carry gradients in sigma_a and length."""
+    x = np.delete(_field(4, 3), [5, 6], axis=0)
+    u = upscaled.operator(x, ELEMENT)
+    z = torch.randn(2, u.shape[1], generator=torch.Generator().manual_seed(5), dtype=torch.float64).numpy()
+    sa = torch.tensor([40.0], dtype=torch.float64, requires_grad=True)
+    ell = torch.tensor([ELEMENT], dtype=torch.float64, requires_grad=True)
+    got = upscaled.sample(torch.tensor(x), sa, ell, 2, torch.Generator().manual_seed(5))
+    np.testing.assert_allclose(got[0].detach().numpy(), 40.0 * (u @ z.T).T, rtol=1e-12, atol=1e-10)
+    ga, gl = torch.autograd.grad(got.square().sum(), (sa, ell))
+    assert float(ga) == pytest.approx(2.0 * float(got.detach().square().sum()) / 40.0, rel=1e-12)
+    assert torch.isfinite(gl).all() and float(gl.abs()) > 0.0

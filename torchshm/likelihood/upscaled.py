@@ -40,10 +40,10 @@ LOG_2PI = math.log(2.0 * math.pi)
 
 
 #: the whole element grid is eliminated (torch, differentiable) while it has at most this many
-#: elements per point; a finer one (an element side far below the points' pitch, e.g. a
+#: elements per point (points written every fourth element each way or closer); a finer one (an element side far below the points' pitch, e.g. a
 #: ``length`` prior reaching towards 0) goes through SciPy's sparse LU of the elements that
 #: the points see, without gradients
-GRID_PER_POINT = 4
+GRID_PER_POINT = 16
 
 
 def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length: Tensor) -> Tensor:
@@ -172,19 +172,35 @@ def _sparse_lu(resid: Tensor, noise: Tensor, x: np.ndarray, sigma_a: float, leng
 
 
 def sample(x: Tensor, sigma_a: Tensor, length: Tensor, n_loads: int, generator: torch.Generator,
-           ops: dict[float, sparse.csr_matrix] | None = None) -> Tensor:
-    """Draws `B x L x n` [µε] of ``sigma_a U z`` (``z``: standard normals of the elements from
-    ``generator``, `L x N` per parameter vector in turn); ``ops``: the operators by element
-    side, filled and reused (a caller drawing in chunks keeps them from chunk to chunk)."""
-    xs, out = x.detach().cpu().numpy(), []
+           ops: dict[float, tuple] | None = None) -> Tensor:
+    """Draws `B x L x n` [µε] of ``sigma_a U z`` (``z``: standard normals of the elements that the
+    points see, in ascending element number, from ``generator``, `L x N` per parameter vector in
+    turn); ``ops``: the element cells by element side, filled and reused (a caller drawing in
+    chunks keeps them from chunk to chunk). Plain torch: differentiable in ``sigma_a`` and, where
+    it requires a gradient, in ``length`` (through the bilinear weights)."""
+    xs, out = x.detach().to(device="cpu", dtype=torch.float64), []
     ops = {} if ops is None else ops
     for b in range(sigma_a.shape[0]):
-        if float(length[b]) not in ops:
-            ops[float(length[b])] = operator(xs, float(length[b]))
-        w = ops[float(length[b])]
-        z = torch.randn(n_loads, w.shape[1], generator=generator, dtype=torch.float64).numpy()
-        out.append(torch.as_tensor(float(sigma_a[b]) * (w @ z.T).T))
+        ell = length[b].to(device="cpu", dtype=torch.float64)
+        if ell.requires_grad:
+            cell = _seen(cells(xs, ell))
+        else:
+            cell = ops.get(float(ell)) or ops.setdefault(float(ell), _seen(cells(xs, ell)))
+        columns, weights, n_seen = cell
+        z = torch.randn(n_loads, n_seen, generator=generator, dtype=torch.float64)
+        field = (z[:, columns] * weights).sum(-1)  # L x n
+        out.append(sigma_a[b].to(device="cpu", dtype=torch.float64) * field)
     return torch.stack(out).to(x.device)
+
+
+def _seen(grid: tuple[tuple[int, int], Tensor, Tensor]) -> tuple[Tensor, Tensor, int]:
+    """Each point's four corners as columns among the elements some point sees with a non-zero
+    weight (ascending element number, as :func:`~torchshm.kernels.upscaled.operator` numbers
+    them), their weights, and how many elements are seen."""
+    _, elements, weights = grid
+    seen = torch.unique(elements[weights != 0.0])
+    columns = torch.searchsorted(seen, elements).clamp_max(seen.numel() - 1)
+    return columns, weights, int(seen.numel())  # a zero weight's column is any: it adds 0
 
 
 def _factor(w: sparse.csr_matrix, inv: np.ndarray, sigma_a: float):

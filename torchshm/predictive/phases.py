@@ -99,7 +99,7 @@ def _draw_line(out: Tensor, points: slice | Tensor, x: Tensor, kern: Kernel, sig
             put(rows, values)
         return
     if method in ("upscaled", "lattice"):  # element values or grid recursions, vector by vector
-        ops: dict = {}  # the upscaled operators by element side, kept from chunk to chunk
+        ops: dict = {}  # the upscaled cells by element side, kept from chunk to chunk
         for rows in chunks:
             f = (upscaled.sample(x, sigma_a[rows], ell[rows], out.shape[1], generator, ops)
                  if method == "upscaled" else

@@ -21,6 +21,7 @@ Gaussian per sensor line and set of valid readings: several fibres, dropouts, 2-
 
 from __future__ import annotations
 
+import logging
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -33,6 +34,8 @@ from torchshm.likelihood.statespace import BATCH_STATE_SPACE_FROM
 
 if TYPE_CHECKING:
     from torchshm.problem import Problem
+
+logger = logging.getLogger(__name__)
 
 #: 1-D blocks of a Markov kernel from this many readings use the exact O(n) state space
 STATE_SPACE_FROM = BATCH_STATE_SPACE_FROM
@@ -151,6 +154,8 @@ class EmulatedLogJoint:
                     if total.requires_grad else None)  # a path that returned constants
         out = values.detach().numpy().copy()
         out[~np.isfinite(out)] = -np.inf
+        if grad is None and np.isfinite(out).any():
+            _warn_no_gradient(p.kernel.name)
         return out, torch.zeros_like(mean) if grad is None else grad
 
     def emulator_share(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -186,6 +191,23 @@ class EmulatedLogJoint:
             m = mean[:, idx[0], idx[1]]
             out[:, idx[0], idx[1]] = (sm * m).square() + kern + torch.as_tensor(noise).square()
         return out
+
+
+def _warn_no_gradient(kernel: str) -> None:
+    """Say once per process that the likelihood's form gave no gradient in the strains."""
+    global _WARNED_NO_GRADIENT
+    if _WARNED_NO_GRADIENT:
+        return
+    _WARNED_NO_GRADIENT = True
+    logger.warning(
+        "emulator: the likelihood form of kernel %r here has no gradient in the strains (kernel "
+        "'upscaled' with an element side far below the points' pitch takes the sparse LU), so the "
+        "log-likelihood sd that the emulator's error causes is its second-order term alone and "
+        "understates it: the exploration and the stop rule may trust the emulator too early; "
+        "prefer method='vbmc' here, or points no sparser than the elements", kernel)
+
+
+_WARNED_NO_GRADIENT = False
 
 
 def _valid_mask(problem: Problem) -> Tensor:
