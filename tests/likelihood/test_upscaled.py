@@ -150,7 +150,8 @@ def test_a_fine_element_grid_takes_the_sparse_lu(rng: np.random.Generator) -> No
 
 def test_draws_are_sigma_a_u_z_in_the_generators_order_and_differentiable() -> None:
     """The draws are ``sigma_a U z`` with `z` the generator's next `L x N` normals of the elements
-    seen (the sparse product's numbers, 1e-12), and carry gradients in sigma_a and length."""
+    seen (SciPy's sparse product's numbers, 1e-12) by torch's sparse product, and by a gather
+    that carries gradients in sigma_a and length where length requires one."""
     x = np.delete(_field(4, 3), [5, 6], axis=0)
     u = upscaled.operator(x, ELEMENT)
     z = torch.randn(2, u.shape[1], generator=torch.Generator().manual_seed(5), dtype=torch.float64).numpy()
@@ -158,6 +159,8 @@ def test_draws_are_sigma_a_u_z_in_the_generators_order_and_differentiable() -> N
     ell = torch.tensor([ELEMENT], dtype=torch.float64, requires_grad=True)
     got = upscaled.sample(torch.tensor(x), sa, ell, 2, torch.Generator().manual_seed(5))
     np.testing.assert_allclose(got[0].detach().numpy(), 40.0 * (u @ z.T).T, rtol=1e-12, atol=1e-10)
+    plain = upscaled.sample(torch.tensor(x), sa.detach(), ell.detach(), 2, torch.Generator().manual_seed(5))
+    np.testing.assert_allclose(plain[0].numpy(), 40.0 * (u @ z.T).T, rtol=1e-12, atol=1e-10)  # the sparse product
     ga, gl = torch.autograd.grad(got.square().sum(), (sa, ell))
     assert float(ga) == pytest.approx(2.0 * float(got.detach().square().sum()) / 40.0, rel=1e-12)
     assert torch.isfinite(gl).all() and float(gl.abs()) > 0.0

@@ -107,8 +107,10 @@ class Upscaled(Kernel):
         if x2 is not None and not torch.equal(as_float64(x2), x1):
             raise ValueError("kernel 'upscaled': covariances between two different point sets are not defined")
         sigma_a, length = self._parameters(sigma_a, length)
-        n, out = x1.shape[0], []
-        for s, ell in zip(sigma_a.reshape(-1).tolist(), length.reshape(-1).tolist()):
-            u = torch.as_tensor(operator(x1.numpy(), ell).toarray())
-            out.append(s**2 * u @ u.T)
+        n, out, shapes = x1.shape[0], [], {}
+        for s, ell in zip(sigma_a.reshape(-1), length.reshape(-1).tolist()):
+            if ell not in shapes:  # U Uᵀ once per element side
+                u = torch.as_tensor(operator(x1.detach().cpu().numpy(), ell).toarray(), device=x1.device)
+                shapes[ell] = u @ u.T
+            out.append(s.square() * shapes[ell])  # differentiable in sigma_a
         return torch.stack(out).reshape(*sigma_a.shape, n, n) if out else x1.new_zeros(*sigma_a.shape, n, n)

@@ -9,11 +9,18 @@ weights a row) and independent element values of sd ``sigma_a`` [µε]::
     y - eta ~ N(0, sigma_a**2 U Uᵀ + diag(noise))         (noise: sigma_e² + sigma_m² eta², `n`)
 
 so the `n` points carry the information of the `N` elements behind them, however many points are
-written. The density is computed through the elements (Woodbury): with ``M = I + sigma_a**2 Uᵀ
-diag(noise)⁻¹ U`` (sparse, one row per element), ``log det`` = ``sum log noise + log det M`` and
-the quadratic form is ``rᵀ noise⁻¹ r - sigma_a**2 bᵀ M⁻¹ b``, ``b = Uᵀ noise⁻¹ r``, by a sparse LU
-(SuperLU) of ``M``: O(n) memory, about 0.15 s CPU per load case at 1.6e5 points. NumPy/SciPy on
-the CPU; no gradients (the methods that use this form do not need them).
+written. The density is computed through the elements (Woodbury): with ``Q = I / sigma_a**2`` on
+the `N` element centres and ``M = Q + Uᵀ diag(noise)⁻¹ U``, ``log det`` = ``sum log noise + log
+det M + N log sigma_a**2`` and the quadratic form is ``rᵀ noise⁻¹ r - bᵀ M⁻¹ b``, ``b = Uᵀ
+noise⁻¹ r``. A point's four weights couple the four elements of its cell, so ``M`` has the
+nine-point coupling of the lattice form (:mod:`torchshm.likelihood.lattice`) and is eliminated by
+the same multifrontal pass over the element grid's nested dissection
+(:func:`~torchshm.likelihood.lattice_frontal.eliminate`, its entries given as a stencil): plain
+torch, float64, differentiable by autograd in the residuals, the diagonal, ``sigma_a`` and
+``length``; about 0.2 s CPU for two load cases at 1.5e5 points, 1.3 s at 1.1e6
+(``scripts/bench_likelihood_upscaled.py``). An element grid much finer than the points (more
+than :data:`GRID_PER_POINT` elements a point) goes through a sparse LU (SciPy's SuperLU) of the
+elements the points see, without gradients. Draws ``sigma_a U z`` are torch's sparse product.
 
 The element grid is read from the points: its first centre is the smallest ``x`` and ``y`` of
 the points (the first row and column of an upscaled field lie on element centres) and its pitch
@@ -26,6 +33,7 @@ global correlation share nodes, so their noise is correlated (``examples/plate_d
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import torch
@@ -172,23 +180,33 @@ def _sparse_lu(resid: Tensor, noise: Tensor, x: np.ndarray, sigma_a: float, leng
 
 
 def sample(x: Tensor, sigma_a: Tensor, length: Tensor, n_loads: int, generator: torch.Generator,
-           ops: dict[float, tuple] | None = None) -> Tensor:
+           ops: dict[float, Tensor] | None = None) -> Tensor:
     """Draws `B x L x n` [µε] of ``sigma_a U z`` (``z``: standard normals of the elements that the
     points see, in ascending element number, from ``generator``, `L x N` per parameter vector in
-    turn); ``ops``: the element cells by element side, filled and reused (a caller drawing in
-    chunks keeps them from chunk to chunk). Plain torch: differentiable in ``sigma_a`` and, where
-    it requires a gradient, in ``length`` (through the bilinear weights)."""
+    turn); ``ops``: ``U`` as a torch CSR tensor by element side, filled and reused (a caller
+    drawing in chunks keeps them from chunk to chunk). Plain torch: differentiable in
+    ``sigma_a`` and, where it requires a gradient, in ``length`` (then through the bilinear
+    weights, by a gather about ten times slower than the sparse product at 10^6 points)."""
     xs, out = x.detach().to(device="cpu", dtype=torch.float64), []
     ops = {} if ops is None else ops
     for b in range(sigma_a.shape[0]):
         ell = length[b].to(device="cpu", dtype=torch.float64)
-        if ell.requires_grad:
-            cell = _seen(cells(xs, ell))
+        if ell.requires_grad and torch.is_grad_enabled():
+            columns, weights, n_seen = _seen(cells(xs, ell))
+            z = torch.randn(n_loads, n_seen, generator=generator, dtype=torch.float64)
+            field = (z.index_select(1, columns.reshape(-1)).view(n_loads, -1, 4) * weights).sum(-1)
         else:
-            cell = ops.get(float(ell)) or ops.setdefault(float(ell), _seen(cells(xs, ell)))
-        columns, weights, n_seen = cell
-        z = torch.randn(n_loads, n_seen, generator=generator, dtype=torch.float64)
-        field = (z[:, columns] * weights).sum(-1)  # L x n
+            if float(ell) not in ops:
+                columns, weights, n_seen = _seen(cells(xs, ell.detach()))
+                rows = torch.arange(columns.shape[0]).repeat_interleave(4)
+                with warnings.catch_warnings():  # "sparse CSR support is in beta": a product is all it does
+                    warnings.simplefilter("ignore", UserWarning)
+                    ops[float(ell)] = torch.sparse_coo_tensor(
+                        torch.stack([rows, columns.reshape(-1)]), weights.reshape(-1),
+                        (columns.shape[0], n_seen), check_invariants=False).coalesce().to_sparse_csr()
+            u = ops[float(ell)]
+            z = torch.randn(n_loads, u.shape[1], generator=generator, dtype=torch.float64)
+            field = (u @ z.T).T  # L x n
         out.append(sigma_a[b].to(device="cpu", dtype=torch.float64) * field)
     return torch.stack(out).to(x.device)
 
@@ -196,11 +214,11 @@ def sample(x: Tensor, sigma_a: Tensor, length: Tensor, n_loads: int, generator: 
 def _seen(grid: tuple[tuple[int, int], Tensor, Tensor]) -> tuple[Tensor, Tensor, int]:
     """Each point's four corners as columns among the elements some point sees with a non-zero
     weight (ascending element number, as :func:`~torchshm.kernels.upscaled.operator` numbers
-    them), their weights, and how many elements are seen."""
+    them), their weights `n x 4`, and how many elements are seen."""
     _, elements, weights = grid
     seen = torch.unique(elements[weights != 0.0])
     columns = torch.searchsorted(seen, elements).clamp_max(seen.numel() - 1)
-    return columns, weights, int(seen.numel())  # a zero weight's column is any: it adds 0
+    return columns, weights, int(seen.numel())  # a zero weight's column: any one (it adds 0)
 
 
 def _factor(w: sparse.csr_matrix, inv: np.ndarray, sigma_a: float):

@@ -5,8 +5,8 @@ vectors (the chain, the mode search, the exploration's Sobol points; twice that 
 the end at about ``n_evidence + n_walkers final_steps`` (measured on the main job: 7,400 vectors
 a round, 10,600 in round 0, 12,000 at the end, for 96 walkers and 50 steps). On a fibre of a few
 hundred readings a vector costs a fraction of a millisecond in a batch; on a camera field with
-a sparse density per vector (kernel ``upscaled``: one sparse LU per vector and load case, about
-0.15 s at 1.6e5 points) a round costs half an hour or more, longer than the model runs it saves.
+a sparse density per vector (kernel ``upscaled``: one elimination of the element grid per vector,
+about 0.2 s at 1.5e5 points) a round costs half an hour or more, longer than the model runs it saves.
 So before the design's runs the likelihood is timed once at rows drawn from the prior, with the
 data standing in for the emulator's mean and a small variance for its own (the cost does not
 depend on the values), and a round whose estimate exceeds :data:`WARN_ROUND_S` is announced
