@@ -36,6 +36,9 @@ def test_estimate_scales_one_vector_to_a_round_and_the_end() -> None:
     # (a fast likelihood: the draws' budget does not bind)
     from torchshm.inference.adaptive import unsure
     assert est.capped == pytest.approx((1 + unsure.N_FIELDS) * unsure.N_POINTS * est.per_vector)
+    # and when that average keeps too few draws, made again on up to MAX_POINTS points
+    most = unsure.MAX_POINTS * est.per_vector
+    assert est.capped_most == pytest.approx(est.capped + (1 + unsure.fields_for(most)) * most)
 
 
 def test_announce_warns_only_above_the_limit(caplog: pytest.LogCaptureFixture) -> None:
@@ -50,6 +53,7 @@ def test_announce_warns_only_above_the_limit(caplog: pytest.LogCaptureFixture) -
             warnings.simplefilter("error")  # no warning below the limit
             cost.announce(problem, quick)
     assert "1.2 s of own compute per round" in caplog.text
+    assert "where that average has to be made again on more points" in caplog.text
 
 
 @pytest.mark.parametrize("seconds, text", [(12.0, "12 s"), (1020.0, "17 min"), (7560.0, "2.1 h")])

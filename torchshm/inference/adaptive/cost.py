@@ -50,13 +50,18 @@ class OwnCost:
         per_round: one round (round 0 costs about twice as much).
         final: the final chain, density and evidence.
         capped: more at the end when the cap ends the run before the stop rule holds (the
-            posterior averaged over the emulator's errors, :mod:`.unsure`).
+            posterior averaged over the emulator's errors, :mod:`.unsure`, on
+            :data:`~.unsure.N_POINTS` points).
+        capped_most: the same average made again on up to :data:`~.unsure.MAX_POINTS` points,
+            where the first keeps fewer than :data:`~.unsure.MIN_ESS` effective draws (known only
+            after it; many parameters).
     """
 
     per_vector: float
     per_round: float
     final: float
     capped: float = 0.0
+    capped_most: float = 0.0
 
 
 def estimate(problem: Problem, n_walkers: int, n_steps: int, final_steps: int, n_evidence: int,
@@ -88,8 +93,10 @@ def estimate(problem: Problem, n_walkers: int, n_steps: int, final_steps: int, n
     per = seconds(k) / k
     per_round = ROUND_FACTOR * n_walkers * n_steps * per
     per_pass = unsure.N_POINTS * per  # one pass of Eq. (21) over the average's points
-    return OwnCost(per, per_round, (n_evidence + n_walkers * final_steps) * per,
-                   (1 + unsure.fields_for(per_pass)) * per_pass)
+    capped = (1 + unsure.fields_for(per_pass)) * per_pass
+    most = unsure.MAX_POINTS * per
+    return OwnCost(per, per_round, (n_evidence + n_walkers * final_steps) * per, capped,
+                   capped + (1 + unsure.fields_for(most)) * most)
 
 
 def duration(seconds: float) -> str:
@@ -106,7 +113,8 @@ def announce(problem: Problem, cost: OwnCost) -> None:
             f"CPU per parameter vector here ({n} readings, kernel {problem.kernel.name!r}), "
             f"so about {duration(cost.per_round)} of own compute per round (twice that in "
             f"round 0) and {duration(cost.final)} at the end ({duration(cost.capped)} more if the "
-            f"cap ends the run before the stop rule holds)")
+            f"cap ends the run before the stop rule holds, up to {duration(cost.capped_most)} where "
+            f"that average has to be made again on more points)")
     if cost.per_round <= WARN_ROUND_S:
         logger.info(text)
         return
