@@ -164,3 +164,21 @@ def test_draws_are_sigma_a_u_z_in_the_generators_order_and_differentiable() -> N
     ga, gl = torch.autograd.grad(got.square().sum(), (sa, ell))
     assert float(ga) == pytest.approx(2.0 * float(got.detach().square().sum()) / 40.0, rel=1e-12)
     assert torch.isfinite(gl).all() and float(gl.abs()) > 0.0
+
+
+@pytest.mark.parametrize("shape", ["one row", "one column", "scattered", "repeated"])
+def test_points_off_a_full_grid_are_the_dense_gaussian(shape: str, rng: np.random.Generator) -> None:
+    """A line of elements (corners clipped onto each other), points anywhere in the cells and
+    repeated points: the elimination is still the dense Gaussian (1e-12 relative)."""
+    x = {"one row": np.column_stack([np.arange(13) * ELEMENT / 3, np.zeros(13)]),
+         "one column": np.column_stack([np.zeros(10), np.arange(10) * ELEMENT / 3]),
+         "scattered": np.column_stack([rng.random(60) * 0.05, rng.random(60) * 0.04]),
+         "repeated": np.repeat(np.column_stack([np.arange(7) * ELEMENT / 2, np.arange(7) * ELEMENT / 2 % 0.02]),
+                               2, axis=0)}[shape]
+    n = x.shape[0]
+    u = upscaled.operator(x, ELEMENT).toarray()
+    r, d = rng.normal(0.0, 30.0, (1, 2, n)), np.abs(rng.normal(20.0, 5.0, (1, 2, n))) + 1.0
+    got = upscaled.log_density(torch.tensor(r), torch.tensor(d), torch.tensor(x), torch.tensor([25.0]),
+                               torch.tensor([ELEMENT], dtype=torch.float64))
+    want = sum(multivariate_normal(np.zeros(n), 625.0 * u @ u.T + np.diag(d[0, k])).logpdf(r[0, k]) for k in range(2))
+    assert float(got[0]) == pytest.approx(want, rel=1e-12)
