@@ -218,3 +218,16 @@ def test_a_problem_on_a_field_evaluates_as_the_dense_path(rng: np.random.Generat
     sparse = torchshm.Problem(model, meas, kernel="separable_exponential").log_likelihood(theta)
     dense = torchshm.Problem(model, meas, kernel=DenseOnly()).log_likelihood(theta)
     np.testing.assert_allclose(sparse, dense, rtol=1e-9)
+
+
+def test_the_grid_of_the_same_tensor_is_read_once_and_again_after_a_change() -> None:
+    """One evaluation asks for the grid of its points several times: the same, unchanged
+    tensor gets the grid read the first time; a change in place (its version) reads it again."""
+    g = np.linspace(0.0, 1.0, 5)
+    x = torch.tensor(np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2))
+    first = lattice.lattice(x)
+    assert lattice.lattice(x) is first
+    assert lattice.lattice(x.clone()) is not first and lattice.lattice(x.clone()).shape == first.shape
+    x[:, 0] *= 2.0
+    again = lattice.lattice(x)
+    assert again is not first and again.pitch[0] == pytest.approx(2.0 * first.pitch[0])

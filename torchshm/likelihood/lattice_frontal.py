@@ -52,19 +52,11 @@ def _assembly(size: int, targets: list[Tensor]) -> tuple[Tensor, Tensor, Tensor]
     source's entries, concatenated in that order and followed by one zero. Returns the gather
     that takes each place's entry from the first source that has it (or the zero), and the
     places and entries of the other sources' entries there (to add)."""
-    total = sum(t.numel() for t in targets)
-    gather = torch.full((size,), total, dtype=torch.int32)
-    covered = torch.zeros(size, dtype=torch.bool)
-    places, entries, offset = [], [], 0
-    for t in targets:
-        again = covered[t]
-        places.append(t[again])
-        entries.append(offset + torch.nonzero(again).reshape(-1))
-        fresh = t[~again]
-        gather[fresh] = (offset + torch.nonzero(~again).reshape(-1)).to(torch.int32)
-        covered[fresh] = True
-        offset += t.numel()
-    return gather, torch.cat(places), torch.cat(entries)
+    places = torch.cat(targets).long()
+    entry = torch.arange(places.numel())
+    gather = torch.full((size,), places.numel(), dtype=torch.long).scatter_reduce_(0, places, entry, "amin")
+    other = gather[places] != entry  # an entry of a later source at a place already taken
+    return gather.to(torch.int32), places[other], entry[other]
 
 
 def _layout(groups: list) -> tuple[list[list[tuple[int, int, int, int]]], list[list[int]]]:
