@@ -71,9 +71,11 @@ def _variances(log_joint: EmulatedLogJoint, rows: np.ndarray) -> tuple[np.ndarra
             "correlated": correlated.numpy()}, {"mean": mean, "var": var, "theta": theta}
 
 
-def run_case(name: str, n_points: int, designs: tuple[tuple[int, int], ...],
-             seed: int = 0) -> list[dict]:
-    """Rows of z-score statistics for one case: one per design and test set."""
+def emulators_at_designs(name: str, n_points: int, designs: tuple[tuple[int, int], ...], seed: int = 0):
+    """Per design and test set of case ``name``: ``(problem, emulator, log_joint, runs, label,
+    rows, strains)``, the emulator fitted to the design's runs, the test set's rows `T x D`
+    inside the prior's support (σa, l, ... at the reference's mean) and the model's strains
+    there `T x L x n` (module docstring: designs and test points)."""
     problem = make_problem(ALL[name])
     ref = json.loads((ROOT / "benchmarks" / "references" / f"{name}.json").read_text())
     names = list(problem.names)
@@ -83,7 +85,6 @@ def run_case(name: str, n_points: int, designs: tuple[tuple[int, int], ...],
     hard = np.asarray(problem.search_bounds, dtype=np.float64)
     physical = [names.index(n) for n in problem.physical_names if n in names]
     other = [i for i in range(len(names)) if i not in physical]
-    out = []
     for n_box, n_near in designs:
         rng = np.random.default_rng([seed, n_box, n_near])
         rows = np.concatenate([design(plausible, n_box, seed),
@@ -101,29 +102,39 @@ def run_case(name: str, n_points: int, designs: tuple[tuple[int, int], ...],
             test = np.clip(test, hard[:, 0], hard[:, 1])
             test[:, other] = mean_ref[other]  # σa, l, ... at the reference's mean
             test = test[np.isfinite(np.asarray(problem.log_prior(test), dtype=np.float64).reshape(-1))]
-            variances, parts = _variances(log_joint, test)
             true = torch.as_tensor(_outputs(problem, physical_columns(problem, test)))
-            delta = (log_joint.at(true, parts["var"], parts["theta"])
-                     - log_joint.at(parts["mean"], parts["var"], parts["theta"]))
-            row = {"case": name, "P": len(problem.physical_names), "runs": len(theta_p),
-                   "test": label, "median_abs_delta": float(np.median(np.abs(delta)))}
-            for model in MODELS:
-                z = delta / np.sqrt(np.maximum(variances[model], 1e-300))
-                z = z[np.isfinite(z)]
-                row[model] = {"rms": float(np.sqrt(np.mean(z**2))) if z.size else float("nan"),
-                              "p99": float(np.quantile(np.abs(z), 0.99)) if z.size else float("nan"),
-                              "over3": float(np.mean(np.abs(z) > 3)) if z.size else float("nan")}
-            out.append(row)
-            print(f"{name:18s} {row['runs']:3d} runs {label:4s} median |Δ| {row['median_abs_delta']:9.3g} | "
-                  + " | ".join(f"{m} rms {row[m]['rms']:6.2f} >3: {row[m]['over3']:.2f}" for m in MODELS),
-                  flush=True)
+            yield problem, emulator, log_joint, len(theta_p), label, test, true
+
+
+def run_case(name: str, n_points: int, designs: tuple[tuple[int, int], ...],
+             seed: int = 0) -> list[dict]:
+    """Rows of z-score statistics for one case: one per design and test set."""
+    out = []
+    for problem, _, log_joint, runs, label, test, true in emulators_at_designs(name, n_points, designs, seed):
+        variances, parts = _variances(log_joint, test)
+        delta = (log_joint.at(true, parts["var"], parts["theta"])
+                 - log_joint.at(parts["mean"], parts["var"], parts["theta"]))
+        row = {"case": name, "P": len(problem.physical_names), "runs": runs,
+               "test": label, "median_abs_delta": float(np.median(np.abs(delta)))}
+        for model in MODELS:
+            z = delta / np.sqrt(np.maximum(variances[model], 1e-300))
+            z = z[np.isfinite(z)]
+            row[model] = {"rms": float(np.sqrt(np.mean(z**2))) if z.size else float("nan"),
+                          "p99": float(np.quantile(np.abs(z), 0.99)) if z.size else float("nan"),
+                          "over3": float(np.mean(np.abs(z) > 3)) if z.size else float("nan")}
+        out.append(row)
+        print(f"{name:18s} {row['runs']:3d} runs {label:4s} median |Δ| {row['median_abs_delta']:9.3g} | "
+              + " | ".join(f"{m} rms {row[m]['rms']:6.2f} >3: {row[m]['over3']:.2f}" for m in MODELS),
+              flush=True)
     return out
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def rows_of(run, description: str, points: int) -> list[dict]:
+    """The command line shared by this script and its kin: ``--cases``, ``--points``, ``--out``
+    and ``TORCHSHM_SMOKE=1``; ``run(name, points, designs)`` gives one case's rows."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--cases", nargs="+", default=list(ALL), choices=list(ALL))
-    parser.add_argument("--points", type=int, default=150, help="test points per set")
+    parser.add_argument("--points", type=int, default=points, help="test points per set")
     parser.add_argument("--out", help="JSON file of all rows")
     args = parser.parse_args()
     designs = DESIGNS
@@ -134,10 +145,15 @@ def main() -> None:
     torch.set_num_threads(1)
     print(f"started {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load average "
           + ", ".join(f"{x:.1f}" for x in os.getloadavg()))
-    rows = [row for name in args.cases for row in run_case(name, args.points, designs)]
+    rows = [row for name in args.cases for row in run(name, args.points, designs)]
     if args.out:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
         Path(args.out).write_text(json.dumps(rows, indent=1))
+    return rows
+
+
+def main() -> None:
+    rows = rows_of(run_case, __doc__.splitlines()[0], 150)
     print("\n| model | test points | median rms z | worst rms z (case, runs) | median share |z| > 3 | worst share |z| > 3 |")
     print("| --- | --- | ---: | --- | ---: | ---: |")
     for model in MODELS:

@@ -24,13 +24,10 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import statistics
 import sys
 import time
-import warnings
 from pathlib import Path
 
 import gpytorch
@@ -41,13 +38,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from bench_emulator_error import ALL, DESIGNS, _outputs  # noqa: E402
-from benchmarks.cases import make_problem  # noqa: E402
-from torchshm.inference.adaptive.acquisition import design  # noqa: E402
-from torchshm.inference.adaptive.field import FieldEmulator, model_transform  # noqa: E402
-from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, physical_columns  # noqa: E402
-
-SMOKE = os.environ.get("TORCHSHM_SMOKE") == "1"
+from bench_emulator_error import emulators_at_designs, rows_of  # noqa: E402
 
 
 class _Scores(gpytorch.models.ExactGP):
@@ -122,72 +113,33 @@ class ComponentGPs:
 
 def run_case(name: str, n_points: int, designs: tuple[tuple[int, int], ...], seed: int = 0) -> list[dict]:
     """Rows of the two emulators' log-likelihood errors for one case: one per design and test set."""
-    problem = make_problem(ALL[name])
-    ref = json.loads((ROOT / "benchmarks" / "references" / f"{name}.json").read_text())
-    names = list(problem.names)
-    mean_ref = np.array([ref["mean"][ref["names"].index(n)] for n in names])
-    sd_ref = np.array([ref["sd"][ref["names"].index(n)] for n in names])
-    plausible = np.asarray(problem.plausible_bounds, dtype=np.float64)
-    hard = np.asarray(problem.search_bounds, dtype=np.float64)
-    other = [i for i, n in enumerate(names) if n not in problem.physical_names]
-    out = []
-    for n_box, n_near in designs:
-        rng = np.random.default_rng([seed, n_box, n_near])
-        rows = np.concatenate([design(plausible, n_box, seed),
-                               mean_ref + sd_ref * rng.standard_normal((n_near, len(names)))])
-        theta_p = physical_columns(problem, np.clip(rows, hard[:, 0], hard[:, 1]))
-        emulator = FieldEmulator.fit(
-            theta_p, _outputs(problem, theta_p), torch.arange(problem.y.shape[1], dtype=torch.float64),
-            torch.as_tensor(np.asarray(problem.measurements.loads, dtype=np.float64)), model_transform(problem.model))
-        start = time.process_time()
-        pca = ComponentGPs(emulator.surrogate.gp.train_inputs[0], emulator.surrogate.gp.train_targets)
-        cpu = time.process_time() - start
-        log_joint, tr = EmulatedLogJoint(problem, emulator), emulator.surrogate.transform
-        width = plausible[:, 1] - plausible[:, 0]
-        tests = {"far": plausible[:, 0] + rng.random((n_points, len(names))) * width,
-                 "near": mean_ref + 2.0 * sd_ref * rng.standard_normal((n_points, len(names)))}
-        for label, test in tests.items():
-            test = np.clip(test, hard[:, 0], hard[:, 1])
-            test[:, other] = mean_ref[other]
-            test = test[np.isfinite(np.asarray(problem.log_prior(test), dtype=np.float64).reshape(-1))]
-            rows_t = torch.as_tensor(test)
-            tp = problem.split.physical(rows_t)
-            true = torch.as_tensor(_outputs(problem, tp.numpy()))
-            shared = emulator.predict_mean(tp)
-            pca_mean = ((tr.offset + pca.mean(tr.inputs(tp)) * tr.scale) * tr.factor(tp)).reshape(shared.shape)
-            exact = log_joint.at(true, None, rows_t)
-            err = {k: np.abs(log_joint.at(m, None, rows_t) - exact) for k, m in (("shared", shared), ("pca", pca_mean))}
-            row = {"case": name, "P": len(problem.physical_names), "runs": len(theta_p), "test": label,
-                   "components": int(pca.loadings.shape[1]), "pca_fit_cpu_s": cpu,
-                   **{f"median_{k}": float(np.median(v)) for k, v in err.items()},
-                   **{f"p90_{k}": float(np.quantile(v, 0.9)) for k, v in err.items()}}
-            out.append(row)
-            print(f"{name:18s} {row['runs']:3d} runs {label:4s} K={row['components']:2d} median |Δ| shared "
-                  f"{row['median_shared']:9.3g} pca {row['median_pca']:9.3g} | 90 % shared {row['p90_shared']:9.3g} "
-                  f"pca {row['p90_pca']:9.3g}", flush=True)
+    out, pca, fitted = [], None, None
+    for problem, emulator, log_joint, runs, label, test, true in emulators_at_designs(name, n_points, designs, seed):
+        if emulator is not fitted:  # one per design, for both test sets
+            start = time.process_time()
+            pca = ComponentGPs(emulator.surrogate.gp.train_inputs[0], emulator.surrogate.gp.train_targets)
+            cpu, fitted = time.process_time() - start, emulator
+        rows, tr = torch.as_tensor(test), emulator.surrogate.transform
+        tp = problem.split.physical(rows)
+        shared = emulator.predict_mean(tp)
+        pca_mean = ((tr.offset + pca.mean(tr.inputs(tp)) * tr.scale) * tr.factor(tp)).reshape(shared.shape)
+        exact = log_joint.at(true, None, rows)
+        err = {k: np.abs(log_joint.at(m, None, rows) - exact) for k, m in (("shared", shared), ("pca", pca_mean))}
+        row = {"case": name, "P": len(problem.physical_names), "runs": runs, "test": label,
+               "components": int(pca.loadings.shape[1]), "pca_fit_cpu_s": cpu,
+               **{f"median_{k}": float(np.median(v)) for k, v in err.items()},
+               **{f"p90_{k}": float(np.quantile(v, 0.9)) for k, v in err.items()}}
+        out.append(row)
+        print(f"{name:18s} {runs:3d} runs {label:4s} K={row['components']:2d} median |Δ| shared "
+              f"{row['median_shared']:9.3g} pca {row['median_pca']:9.3g} | 90 % shared {row['p90_shared']:9.3g} "
+              f"pca {row['p90_pca']:9.3g}", flush=True)
     return out
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", nargs="+", default=list(ALL), choices=list(ALL))
-    parser.add_argument("--points", type=int, default=100, help="test points per set")
-    parser.add_argument("--out", help="JSON file of all rows")
-    args = parser.parse_args()
-    designs = DESIGNS
-    if SMOKE:
-        args.cases, args.points, designs = args.cases[:1], 10, DESIGNS[:1]
-        print(f"TORCHSHM_SMOKE=1: {args.cases[0]}, one design, 10 points: a check that it runs")
-    warnings.simplefilter("ignore")
-    torch.set_num_threads(1)
-    print(f"started {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load average "
-          + ", ".join(f"{x:.1f}" for x in os.getloadavg()))
-    rows = [row for name in args.cases for row in run_case(name, args.points, designs)]
-    if args.out:
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.out).write_text(json.dumps(rows, indent=1))
-    print("\n| runs | test points | median over cases of median \\|Δ\\| shared / pca [nat] | median ratio pca / shared "
-          "| cases pca 2× better / 2× worse | median 90 % \\|Δ\\| shared / pca [nat] |")
+    rows = rows_of(run_case, __doc__.splitlines()[0], 100)
+    print("\n| runs | test points | median over cases of median \\|Δ\\| shared / pca [nat] | median ratio "
+          "pca / shared | cases pca 2× better / 2× worse | median 90 % \\|Δ\\| shared / pca [nat] |")
     print("| ---: | --- | ---: | ---: | ---: | ---: |")
     for runs in sorted({r["runs"] for r in rows}):
         for label in ("far", "near"):
@@ -198,7 +150,8 @@ def main() -> None:
             print(f"| {runs} | {label} | {statistics.median(r['median_shared'] for r in sel):.3g} / "
                   f"{statistics.median(r['median_pca'] for r in sel):.3g} | {statistics.median(ratio):.2f} | "
                   f"{sum(q < 0.5 for q in ratio)} / {sum(q > 2 for q in ratio)} of {len(sel)} | "
-                  f"{statistics.median(r['p90_shared'] for r in sel):.3g} / {statistics.median(r['p90_pca'] for r in sel):.3g} |")
+                  f"{statistics.median(r['p90_shared'] for r in sel):.3g} / "
+                  f"{statistics.median(r['p90_pca'] for r in sel):.3g} |")
     print("load average at the end " + ", ".join(f"{x:.1f}" for x in os.getloadavg()))
 
 

@@ -32,7 +32,7 @@ from torch import Tensor
 from torchshm.likelihood.lattice_frontal import eliminate
 from torchshm.likelihood.lattice_order import Grid, lattice
 
-__all__ = ["Grid", "lattice", "log_density", "sample"]
+__all__ = ["Grid", "lattice", "log_density", "same_noise", "sample"]
 
 LOG_2PI = math.log(2.0 * math.pi)
 
@@ -75,7 +75,7 @@ def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length
         ry, sy = _factors(py, ell[b])
         log_det_q = -ny * (nx - 1) * sx.log() - nx * (ny - 1) * sy.log() - 2.0 * nx * ny * sa[b].log()
         total = r.new_zeros(())
-        for same in _same_noise(d[b]):
+        for same in same_noise(d[b]):
             inv = 1.0 / d[b, same[0]]
             weight = inv.new_zeros(nx * ny).index_add(0, node, inv)
             rhs = inv.new_zeros(nx * ny, len(same)).index_add(0, node, (inv * r[b, same]).T)
@@ -87,7 +87,7 @@ def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length
     return torch.stack(out).to(device=resid.device, dtype=resid.dtype)
 
 
-def _same_noise(noise: Tensor) -> list[list[int]]:
+def same_noise(noise: Tensor) -> list[list[int]]:
     """Load cases (rows of `L x n` ``noise``) grouped by equal diagonals, in order."""
     groups: list[list[int]] = []
     for load in range(noise.shape[0]):

@@ -152,7 +152,8 @@ def eliminate(shape: tuple[int, int], factors: tuple[Tensor, Tensor, Tensor, Ten
                 count = chunk.shape[0]
                 rows = slice(start, start + count)
                 if stencil is None:
-                    vals = _entries(chunk[:, a], chunk[:, b], shape, factors, scale) + torch.where(a == b, weight[chunk[:, a]], 0.0)
+                    vals = (_entries(chunk[:, a], chunk[:, b], shape, factors, scale)
+                            + torch.where(a == b, weight[chunk[:, a]], 0.0))
                 else:
                     vals = _stencil_entries(chunk[:, a], chunk[:, b], ny, stencil)
                 joined[g][rows, own:width - 1] = torch.cat([vals, vals[:, mirror]], 1)

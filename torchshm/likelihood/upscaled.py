@@ -42,15 +42,16 @@ from scipy.sparse.linalg import splu
 from torch import Tensor
 
 from torchshm.kernels.upscaled import cells, operator
+from torchshm.likelihood.lattice import same_noise
 from torchshm.likelihood.lattice_frontal import eliminate
 
 LOG_2PI = math.log(2.0 * math.pi)
 
 
 #: the whole element grid is eliminated (torch, differentiable) while it has at most this many
-#: elements per point (points written every fourth element each way or closer); a finer one (an element side far below the points' pitch, e.g. a
-#: ``length`` prior reaching towards 0) goes through SciPy's sparse LU of the elements that
-#: the points see, without gradients
+#: elements per point (points written every fourth element each way or closer); a finer one
+#: (an element side far below the points' pitch, e.g. a ``length`` prior reaching towards 0)
+#: goes through SciPy's sparse LU of the elements that the points see, without gradients
 GRID_PER_POINT = 16
 
 
@@ -87,10 +88,11 @@ def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length
             grid = grids.get(float(ell[b])) or grids.setdefault(float(ell[b]), cells(xs, ell[b].detach()))
         (nx, ny), elements, weights = grid
         if nx * ny > GRID_PER_POINT * n:
-            out.append(r.new_tensor(_sparse_lu(r[b], d[b], xs.numpy(), float(sa[b].detach()), float(ell[b].detach()))))
+            value = _sparse_lu(r[b], d[b], xs.numpy(), float(sa[b].detach()), float(ell[b].detach()))
+            out.append(r.new_tensor(value))
             continue
         total = r.new_zeros(())
-        for same in _same_noise(d[b]):
+        for same in same_noise(d[b]):
             inv = 1.0 / d[b, same[0]]
             stencil = _element_matrix(elements, weights, inv, (nx, ny), sa[b])
             rhs = _element_rhs(elements, weights, (inv * r[b, same]).T, (nx, ny))
@@ -146,19 +148,6 @@ def _element_rhs(elements: Tensor, weights: Tensor, values: Tensor, shape: tuple
     for a, (ai, aj) in enumerate(CORNERS):
         out[ai:ai + nx - 1, aj:aj + ny - 1] += sums[:, :, a]
     return out.reshape(nx * ny, k)
-
-
-def _same_noise(noise: Tensor) -> list[list[int]]:
-    """Load cases (rows of `L x n` ``noise``) grouped by equal diagonals, in order."""
-    groups: list[list[int]] = []
-    for load in range(noise.shape[0]):
-        for group in groups:
-            if torch.equal(noise[group[0]], noise[load]):
-                group.append(load)
-                break
-        else:
-            groups.append([load])
-    return groups
 
 
 def _sparse_lu(resid: Tensor, noise: Tensor, x: np.ndarray, sigma_a: float, length: float) -> float:
