@@ -89,7 +89,7 @@ def child(nx: int, ny: int, seed: int) -> None:
 
     _, cpu = _cpu(with_gradient)
     print(f"torch with gradients\t{cpu}")
-    lu, cpu = _cpu(lambda: upscaled._sparse_lu(r[0], d[0], x, SA, ELEMENT))
+    lu, cpu = _cpu(lambda: upscaled._sparse_lu(r[0], d[0], operator(x, ELEMENT), SA))  # U built, as each call did
     print(f"sparse LU\t{cpu}\ntorch - sparse LU [nat]\t{value - lu}\nvalue\t{value}")
     print(f"peak memory growth [MB]\t{(_rss('VmHWM:') - before) / 2**20}")
     gen, ops = torch.Generator().manual_seed(seed), {}

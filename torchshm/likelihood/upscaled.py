@@ -77,6 +77,7 @@ def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length
     xs = x.detach().to(**cpu)
     n = r.shape[2]
     grids: dict[float, tuple] = {}
+    ops: dict[float, sparse.csr_matrix] = {}  # the sparse LU's operators, where it is taken
     out = []
     for b in range(r.shape[0]):
         if bool(sa[b] == 0):  # no element noise: the diagonal alone
@@ -88,7 +89,11 @@ def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length
             grid = grids.get(float(ell[b])) or grids.setdefault(float(ell[b]), cells(xs, ell[b].detach()))
         (nx, ny), elements, weights = grid
         if nx * ny > GRID_PER_POINT * n:
-            value = _sparse_lu(r[b], d[b], xs.numpy(), float(sa[b].detach()), float(ell[b].detach()))
+            side = float(ell[b].detach())
+            w = ops.get(side)
+            if w is None:  # the operator once per element side, as the form before had it
+                w = ops[side] = operator(xs.numpy(), side)
+            value = _sparse_lu(r[b], d[b], w, float(sa[b].detach()))
             out.append(r.new_tensor(value))
             continue
         total = r.new_zeros(())
@@ -150,11 +155,10 @@ def _element_rhs(elements: Tensor, weights: Tensor, values: Tensor, shape: tuple
     return out.reshape(nx * ny, k)
 
 
-def _sparse_lu(resid: Tensor, noise: Tensor, x: np.ndarray, sigma_a: float, length: float) -> float:
+def _sparse_lu(resid: Tensor, noise: Tensor, w: sparse.csr_matrix, sigma_a: float) -> float:
     """The log density of one vector's residuals `L x n` through a sparse LU of ``I + sigma_a**2
     Uᵀ D⁻¹ U`` over the elements the points see (NumPy/SciPy, no gradients)."""
     r, d = resid.detach().numpy(), noise.detach().numpy()
-    w = operator(x, length)
     total = 0.0
     for load in range(r.shape[0]):
         if load == 0 or not np.array_equal(d[load], d[load - 1]):
