@@ -48,15 +48,25 @@ def is_markov(kern: Kernel) -> bool:
     return getattr(kern, "state_dim", 0) > 0 and hasattr(kern, "state_space")
 
 
-def _model(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor) -> tuple[Tensor, Tensor, Tensor]:
-    """Transitions `B x n x p x p` (the first is unused), process covariances `B x n x p x p`
-    (the first is the stationary covariance) and stationary covariance `B x p x p`."""
-    step = torch.diff(x, prepend=x[:1])  # n, step 0 at the first position
-    F, P = kern.state_space(step[None, :], length[:, None].clamp_min(0.0))  # B x n x p x p
+def _tables(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor) -> tuple[Tensor, Tensor, Tensor, Tensor]:
+    """Transitions and process covariances per kind of position, computed once per distinct step.
+
+    Returns:
+        ``F`` `B x (U + 2) x p x p` and ``Q`` (same shape): kind 0 is the first position (no
+        transition, ``Q`` the stationary covariance ``sigma_a**2 P``), kinds ``1..U`` the `U`
+        distinct steps ``x_k - x_{k-1}``, kind ``U + 1`` nothing (``F = Q = 0``, padding);
+        ``kind`` `n`, each position's kind; and the stationary covariance `B x p x p`.
+    """
+    step = torch.diff(x, prepend=x[:1])
+    values, index = torch.unique(step[1:], return_inverse=True)
+    F, P = kern.state_space(values[None, :], length[:, None].clamp_min(0.0))  # B x U x p x p
     P = P * sigma_a.square()[:, None, None]  # B x p x p
     Q = P[:, None] - F @ P[:, None] @ F.mT
-    Q = torch.cat([P[:, None].expand(-1, 1, -1, -1), Q[:, 1:]], dim=1)
-    return F, 0.5 * (Q + Q.mT), P
+    zero = F.new_zeros(F.shape[0], 1, *F.shape[2:])  # (U may be 0: a single position)
+    F = torch.cat([zero, F, zero], dim=1)
+    Q = torch.cat([P[:, None], 0.5 * (Q + Q.mT), zero], dim=1)
+    kind = torch.cat([index.new_zeros(1), index + 1])
+    return F, Q, kind, P
 
 
 def block_size(n: int, p: int) -> int:
@@ -96,19 +106,19 @@ def log_density(r: Tensor, noise: Tensor, x: Tensor, kern: Kernel, sigma_a: Tens
         `B` log densities, each the sum over the `L` load cases (differentiable).
     """
     B, L, n = r.shape
-    F, Q, _ = _model(x, kern, sigma_a, length)  # B x n x p x p
-    F = torch.cat([torch.zeros_like(F[:, :1]), F[:, 1:]], dim=1)  # the prior enters through Q_1
+    F, Q, kind, _ = _tables(x, kern, sigma_a, length)  # B x (U + 2) x p x p; the prior enters through Q_1
     p = F.shape[-1]
     size = block_size(n, p)
     blocks = -(-n // size)
     # padding: F = 0, Q = 0, y = 0, D = 1 — each padded position adds exactly -log(2 pi) / 2
     y, D = _layout(r, size, blocks, 0.0), _layout(noise, size, blocks, 1.0)  # size x B x L x G
+    kinds = _layout(kind, size, blocks, F.shape[1] - 1).to(x.device)  # size x G
     if p == 1:
-        F, Q = (_layout(t[..., 0, 0], size, blocks, 0.0)[:, :, None] for t in (F, Q))  # size x B x 1 x G
+        F, Q = (t[:, kinds, 0, 0].movedim(1, 0)[:, :, None] for t in (F, Q))  # size x B x 1 x G
         elements, terms = _scalar_blocks(F, Q, y, D)
         total = terms + _scalar_merge(*elements)
     else:
-        F, Q = (_layout(t.permute(2, 3, 0, 1), size, blocks, 0.0)[..., None, :] for t in (F, Q))
+        F, Q = (t.permute(2, 3, 0, 1)[..., kinds].movedim(3, 0)[..., None, :] for t in (F, Q))
         elements, terms = _matrix_blocks(F, Q, y, D)  # F, Q: size x p x p x B x 1 x G
         total = terms + _matrix_merge(*elements)
     return total.sum((-1, -2)) - 0.5 * L * n * LOG_2PI

@@ -29,7 +29,9 @@ from __future__ import annotations
 import math
 
 import gpytorch
+import numpy as np
 import torch
+from scipy.optimize import minimize
 from torch import Tensor
 
 #: names of the kernels the surrogate offers
@@ -114,23 +116,50 @@ class SharedKernelGP(gpytorch.models.ExactGP):
         self.likelihood.noise = max(1e-6, 10 * self.min_noise)
 
     def _optimise(self, max_iter: int) -> float:
+        """L-BFGS-B (SciPy) on the raw hyperparameters from their current values, at most
+        `max_iter` iterations; the mean log marginal likelihood reached (-inf on failure).
+
+        SciPy's optimiser rather than ``torch.optim.LBFGS``: the first ``torch.optim``
+        optimiser of a process imports ``torch._dynamo`` (about 2 s of CPU, once per process,
+        in every command that fits an emulator)."""
         self.train()
-        for p in self.parameters():
+        params = list(self.parameters())
+        for p in params:
             p.requires_grad_(True)
-        optimiser = torch.optim.LBFGS(self.parameters(), lr=1.0, max_iter=max_iter,
-                                      line_search_fn="strong_wolfe")
+        start = torch.cat([p.detach().reshape(-1) for p in params]).numpy().astype(np.float64)
 
-        def closure() -> Tensor:
-            optimiser.zero_grad()
-            loss = -self.log_marginal_likelihood().mean()
-            loss.backward()
-            return loss
+        def load(v: np.ndarray) -> None:
+            flat = torch.as_tensor(v, dtype=torch.float64)
+            with torch.no_grad():
+                offset = 0
+                for p in params:
+                    p.copy_(flat[offset:offset + p.numel()].reshape(p.shape))
+                    offset += p.numel()
 
+        def loss_and_grad(v: np.ndarray) -> tuple[float, np.ndarray]:
+            load(v)
+            for p in params:
+                p.grad = None
+            try:
+                loss = -self.log_marginal_likelihood().mean()
+                loss.backward()
+            except (RuntimeError, ValueError):  # a failed Cholesky factor: make the step shorter
+                return math.inf, np.zeros_like(v)
+            grad = torch.cat([(p.grad if p.grad is not None else torch.zeros_like(p)).reshape(-1)
+                              for p in params])
+            value = float(loss.detach())
+            if not math.isfinite(value) or not bool(torch.isfinite(grad).all()):
+                return math.inf, np.zeros_like(v)
+            return value, grad.numpy().astype(np.float64)
+
+        result = minimize(loss_and_grad, start, jac=True, method="L-BFGS-B",
+                          options={"maxiter": int(max_iter), "maxfun": int(1.25 * max_iter) + 1,
+                                   "maxcor": 50, "ftol": 1e-10, "gtol": 1e-7})
+        load(result.x)
         try:
-            optimiser.step(closure)
             with torch.no_grad():
                 value = float(self.log_marginal_likelihood().mean())
-        except (RuntimeError, ValueError):  # a failed Cholesky factor or a NaN step
+        except (RuntimeError, ValueError):
             return -math.inf
         return value if math.isfinite(value) else -math.inf
 
