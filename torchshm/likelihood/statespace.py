@@ -176,31 +176,37 @@ def _mm(X: Tensor, Y: Tensor) -> Tensor:
 
 def _matrix_blocks(F: Tensor, Q: Tensor, y: Tensor, D: Tensor) -> tuple[tuple[Tensor, ...], Tensor]:
     """Known-start filter in every block at once, state dimension ``p > 1``: elements
-    ``A, C, J`` `p x p x B x L x G`, ``b, eta`` `p x B x L x G`, and the terms at ``s_0 = 0``."""
+    ``A, C, J`` `p x p x B x L x G`, ``b, eta`` `p x B x L x G`, and the terms at ``s_0 = 0``.
+
+    The filtered mean ``m`` and its derivative ``G`` in ``s_0`` share one `p x (p + 1)` stack
+    ``M = [G | m]`` (one product with ``F`` per position), and the innovation variances are
+    kept to take their logs in one call after the loop: the loop is a few dozen operations on
+    small tensors per position, so their number sets its time."""
     p, shape = F.shape[1], y.shape[1:]
     eye = torch.eye(p, dtype=y.dtype, device=y.device).reshape(p, p, *[1] * len(shape))
-    m, P, G = y.new_zeros(p, 1, *shape), y.new_zeros(p, p, *shape), eye.expand(p, p, *shape)
-    eta, J = y.new_zeros(p, *shape), y.new_zeros(p, p, *shape)
-    quad, logs = y.new_zeros(shape), y.new_zeros(shape)
+    M = torch.cat([eye.expand(p, p, *shape), y.new_zeros(p, 1, *shape)], dim=1)  # [G | m]
+    P, J, eta = y.new_zeros(p, p, *shape), y.new_zeros(p, p, *shape), y.new_zeros(p, *shape)
+    quad, S = y.new_zeros(shape), []
+    FT = F.transpose(1, 2)
     for j in range(y.shape[0]):
         Fj = F[j]
-        Pp = _mm(_mm(Fj, P), Fj.transpose(0, 1)) + Q[j]
+        Pp = _mm(_mm(Fj, P), FT[j]).add_(Q[j])
         Pp = 0.5 * (Pp + Pp.transpose(0, 1))
-        mp, Gp = _mm(Fj, m), _mm(Fj, G)
-        S = Pp[0, 0] + D[j]
-        w = S.reciprocal()
-        v = y[j] - mp[0, 0]
+        Mp = _mm(Fj, M)
+        S.append(Pp[0, 0] + D[j])
+        w = S[-1].reciprocal()
+        v = y[j] - Mp[0, p]
         vw = v * w
         quad = quad.addcmul(v, vw)
-        logs = logs + S.log()
-        h = Gp[0]  # derivative of the predicted observation in s_0, p x ...
+        h = Mp[0, :p]  # derivative of the predicted observation in s_0, p x ...
         eta = eta.addcmul(h, vw)
         J = J.addcmul(h[:, None] * w, h[None])
         k = Pp[:, :1] * w  # gain, p x 1 x ...
-        m = mp.addcmul(Pp[:, :1], vw)
-        G = Gp - k * Gp[:1]
+        top = Mp[:1].clone()
+        top[0, p] -= y[j]  # m = mp + k v = mp - k (mp_0 - y)
+        M = Mp - k * top
         P = Pp - k * Pp[:1]
-    return (G, m[:, 0], P, eta, J), -0.5 * (quad + logs)
+    return (M[:, :p], M[:, p], P, eta, J), -0.5 * (quad + torch.stack(S).log().sum(0))
 
 
 def _matrix_merge(A: Tensor, b: Tensor, C: Tensor, eta: Tensor, J: Tensor) -> Tensor:
