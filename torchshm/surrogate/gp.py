@@ -32,6 +32,7 @@ import gpytorch
 import numpy as np
 import torch
 from scipy.optimize import minimize
+from threadpoolctl import threadpool_limits
 from torch import Tensor
 
 #: names of the kernels the surrogate offers
@@ -121,7 +122,9 @@ class SharedKernelGP(gpytorch.models.ExactGP):
 
         SciPy's optimiser rather than ``torch.optim.LBFGS``: the first ``torch.optim``
         optimiser of a process imports ``torch._dynamo`` (about 2 s of CPU, once per process,
-        in every command that fits an emulator)."""
+        in every command that fits an emulator). NumPy's and SciPy's OpenBLAS are held to one
+        thread meanwhile: beside torch's own threads, theirs spin between the optimiser's tiny
+        steps (measured: 2-4x the fit's CPU time with 2 threads each on 2 cores)."""
         self.train()
         params = list(self.parameters())
         for p in params:
@@ -152,9 +155,10 @@ class SharedKernelGP(gpytorch.models.ExactGP):
                 return math.inf, np.zeros_like(v)
             return value, grad.numpy().astype(np.float64)
 
-        result = minimize(loss_and_grad, start, jac=True, method="L-BFGS-B",
-                          options={"maxiter": int(max_iter), "maxfun": int(1.25 * max_iter) + 1,
-                                   "maxcor": 50, "ftol": 1e-10, "gtol": 1e-7})
+        with threadpool_limits(limits=1, user_api="blas"):  # NumPy/SciPy's OpenBLAS threads
+            result = minimize(loss_and_grad, start, jac=True, method="L-BFGS-B",
+                              options={"maxiter": int(max_iter), "maxfun": int(1.25 * max_iter) + 1,
+                                       "maxcor": 50, "ftol": 1e-10, "gtol": 1e-7})
         load(result.x)
         try:
             with torch.no_grad():

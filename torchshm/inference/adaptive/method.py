@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
+from threadpoolctl import threadpool_limits
 
 from torchshm.inference.adaptive import cost
 from torchshm.inference.adaptive import modes as mode_search
@@ -105,13 +106,16 @@ def run_emulator(
     The method's own work is many small batched tensor operations: it runs on one torch thread
     (restored afterwards), which on a busy machine is several times faster than threads that
     wait for each other (the main job: 11–17 s of CPU on one thread; 227 s with two at load 3).
+    NumPy's and SciPy's BLAS are held to one thread too (emcee, the mode search, the GP fits'
+    optimiser); a model run sets its own (:mod:`torchshm.forward.cores`).
     """
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # small batched operations: one thread, no spinning on a busy machine
     try:
-        return _run(problem, seed, log_dir, batch_size, max_model_evaluations, n_jobs, executor,
-                    n_initial, n_walkers, n_steps, final_steps, tv_tol, patience, sd_tol, check_tol,
-                    n_evidence, emulator_kernel)
+        with threadpool_limits(limits=1, user_api="blas"):  # the same for NumPy's and SciPy's BLAS
+                return _run(problem, seed, log_dir, batch_size, max_model_evaluations, n_jobs, executor,
+                        n_initial, n_walkers, n_steps, final_steps, tv_tol, patience, sd_tol,
+                        check_tol, n_evidence, emulator_kernel)
     finally:
         torch.set_num_threads(threads)
 
