@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 from pyvbmc import VBMC
 
+from torchshm.inference import blas
 from torchshm.inference.peer_errors import (
     NUMERICAL, PeerNumericalError, first_line, log_joint_range, peer_of, where,
 )
@@ -65,7 +66,8 @@ class IterationTrace:
 
         def traced(theta: np.ndarray) -> np.ndarray:
             self.poll()
-            return target(theta)
+            with blas.model_work():
+                return target(theta)
 
         return traced
 
@@ -160,14 +162,15 @@ def run_vbmc(
     iterations = IterationTrace(trace, names, n_pre, seed)
     vbmc_options = _pyvbmc_options(options, 0 if x0 is None else x0.shape[0], n_initial, len(names))
     try:
-        vbmc = VBMC(
-            iterations.wrap(target), x0, hard[:, 0], hard[:, 1], plausible[:, 0], plausible[:, 1],
-            options=vbmc_options, seed=seed,
-            precomputed_evaluations=precomputed, initialization_cost=n_search,
-        )
-        iterations.vbmc = vbmc
-        vp, results, retried = _optimize(vbmc, iterations, target, first, settings, hard, plausible,
-                                         vbmc_options, seed, n_search)
+        with blas.own_work():  # PyVBMC's NumPy work is small matrices: one BLAS thread
+            vbmc = VBMC(
+                iterations.wrap(target), x0, hard[:, 0], hard[:, 1], plausible[:, 0],
+                plausible[:, 1], options=vbmc_options, seed=seed,
+                precomputed_evaluations=precomputed, initialization_cost=n_search,
+            )
+            iterations.vbmc = vbmc
+            vp, results, retried = _optimize(vbmc, iterations, target, first, settings, hard,
+                                             plausible, vbmc_options, seed, n_search)
         iterations.poll()
     finally:
         trace.close()

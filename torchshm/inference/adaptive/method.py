@@ -34,8 +34,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
-from threadpoolctl import threadpool_limits
 
+from torchshm.inference import blas
 from torchshm.inference.adaptive import cost
 from torchshm.inference.adaptive import modes as mode_search
 from torchshm.inference.adaptive import sampling
@@ -107,12 +107,12 @@ def run_emulator(
     (restored afterwards), which on a busy machine is several times faster than threads that
     wait for each other (the main job: 11–17 s of CPU on one thread; 227 s with two at load 3).
     NumPy's and SciPy's BLAS are held to one thread too (emcee, the mode search, the GP fits'
-    optimiser); a model run sets its own (:mod:`torchshm.forward.cores`).
+    optimiser); model runs get the process's own number back (:mod:`torchshm.inference.blas`).
     """
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # small batched operations: one thread, no spinning on a busy machine
     try:
-        with threadpool_limits(limits=1, user_api="blas"):  # the same for NumPy's and SciPy's BLAS
+        with blas.own_work():  # the same for NumPy's and SciPy's BLAS (a model run gets its own)
                 return _run(problem, seed, log_dir, batch_size, max_model_evaluations, n_jobs, executor,
                         n_initial, n_walkers, n_steps, final_steps, tv_tol, patience, sd_tol,
                         check_tol, n_evidence, emulator_kernel)
@@ -170,7 +170,8 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
         for r in range(budget + 1):
             t_round, c_round = time.perf_counter(), time.process_time()
             n_before = runs.theta_p.shape[0]
-            new, outputs = run_batch(problem, runs, batch, n_jobs, executor)
+            with blas.model_work():
+                new, outputs = run_batch(problem, runs, batch, n_jobs, executor)
             check = (check_batch(previous, emulator, batch_rows, outputs[:len(batch_rows)])
                      if previous is not None and emulator is not None and batch_rows is not None
                      and len(batch_rows) else None)
