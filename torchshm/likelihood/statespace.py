@@ -48,14 +48,14 @@ def is_markov(kern: Kernel) -> bool:
     return getattr(kern, "state_dim", 0) > 0 and hasattr(kern, "state_space")
 
 
-def _tables(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor) -> tuple[Tensor, Tensor, Tensor, Tensor]:
+def _tables(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor) -> tuple[Tensor, Tensor, Tensor]:
     """Transitions and process covariances per kind of position, computed once per distinct step.
 
     Returns:
         ``F`` `B x (U + 2) x p x p` and ``Q`` (same shape): kind 0 is the first position (no
         transition, ``Q`` the stationary covariance ``sigma_a**2 P``), kinds ``1..U`` the `U`
         distinct steps ``x_k - x_{k-1}``, kind ``U + 1`` nothing (``F = Q = 0``, padding);
-        ``kind`` `n`, each position's kind; and the stationary covariance `B x p x p`.
+        and ``kind`` `n`, each position's kind.
     """
     step = torch.diff(x, prepend=x[:1])
     values, index = torch.unique(step[1:], return_inverse=True)
@@ -66,7 +66,7 @@ def _tables(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor) -> tuple[T
     F = torch.cat([zero, F, zero], dim=1)
     Q = torch.cat([P[:, None], 0.5 * (Q + Q.mT), zero], dim=1)
     kind = torch.cat([index.new_zeros(1), index + 1])
-    return F, Q, kind, P
+    return F, Q, kind
 
 
 def block_size(n: int, p: int) -> int:
@@ -106,7 +106,7 @@ def log_density(r: Tensor, noise: Tensor, x: Tensor, kern: Kernel, sigma_a: Tens
         `B` log densities, each the sum over the `L` load cases (differentiable).
     """
     B, L, n = r.shape
-    F, Q, kind, _ = _tables(x, kern, sigma_a, length)  # B x (U + 2) x p x p; the prior enters through Q_1
+    F, Q, kind = _tables(x, kern, sigma_a, length)  # B x (U + 2) x p x p; the prior enters through Q_1
     p = F.shape[-1]
     size = block_size(n, p)
     blocks = -(-n // size)
@@ -260,16 +260,8 @@ def sample(
         generator: source of the standard normals.
     """
     B, n, p, L = sigma_a.shape[0], x.shape[0], kern.state_dim, n_loads
-    step = torch.diff(x, prepend=x[:1])
-    values, index = torch.unique(step, return_inverse=True)
-    F, P = kern.state_space(values[None, :], length[:, None].clamp_min(0.0))  # B x U x p x p
-    P = P * sigma_a.square()[:, None, None, None]
-    Q = P - F @ P @ F.mT
-    zero = torch.zeros_like(F[:, :1])
-    # kinds of position: 0 the first (no transition), 1..U a step, U + 1 padding (nothing)
-    F = torch.cat([zero, F, zero], dim=1).permute(2, 3, 0, 1)  # p x p x B x (U + 2)
-    R = torch.cat([_root(P[:, :1]), _root(0.5 * (Q + Q.mT)), zero], dim=1).permute(2, 3, 0, 1)
-    kind = torch.cat([index.new_zeros(1), index[1:] + 1])
+    F, Q, kind = _tables(x, kern, sigma_a, length)  # B x (U + 2) x p x p, the kinds of position
+    F, R = F.permute(2, 3, 0, 1), _root(Q).permute(2, 3, 0, 1)  # p x p x B x (U + 2)
     size = draw_block_size(n, B * L)
     blocks = -(-n // size)
     kinds = _layout(kind, size, blocks, F.shape[-1] - 1).to(x.device)  # size x blocks

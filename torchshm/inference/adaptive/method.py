@@ -113,7 +113,7 @@ def run_emulator(
     torch.set_num_threads(1)  # small batched operations: one thread, no spinning on a busy machine
     try:
         with blas.own_work():  # the same for NumPy's and SciPy's BLAS (a model run gets its own)
-                return _run(problem, seed, log_dir, batch_size, max_model_evaluations, n_jobs, executor,
+            return _run(problem, seed, log_dir, batch_size, max_model_evaluations, n_jobs, executor,
                         n_initial, n_walkers, n_steps, final_steps, tv_tol, patience, sd_tol,
                         check_tol, n_evidence, emulator_kernel)
     finally:
