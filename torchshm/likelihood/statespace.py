@@ -49,14 +49,9 @@ def is_markov(kern: Kernel) -> bool:
 
 
 def _tables(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor) -> tuple[Tensor, Tensor, Tensor]:
-    """Transitions and process covariances per kind of position, computed once per distinct step.
-
-    Returns:
-        ``F`` `B x (U + 2) x p x p` and ``Q`` (same shape): kind 0 is the first position (no
-        transition, ``Q`` the stationary covariance ``sigma_a**2 P``), kinds ``1..U`` the `U`
-        distinct steps ``x_k - x_{k-1}``, kind ``U + 1`` nothing (``F = Q = 0``, padding);
-        and ``kind`` `n`, each position's kind.
-    """
+    """Transitions ``F`` and process covariances ``Q`` `B x (U + 2) x p x p` per kind of position
+    and ``kind`` `n`, each position's: 0 the first (``F = 0``, ``Q = sigma_a**2 P``), ``1..U``
+    the `U` distinct steps ``x_k - x_{k-1}``, ``U + 1`` padding (``F = Q = 0``)."""
     step = torch.diff(x, prepend=x[:1])
     values, index = torch.unique(step[1:], return_inverse=True)
     F, P = kern.state_space(values[None, :], length[:, None].clamp_min(0.0))  # B x U x p x p
@@ -177,11 +172,8 @@ def _mm(X: Tensor, Y: Tensor) -> Tensor:
 def _matrix_blocks(F: Tensor, Q: Tensor, y: Tensor, D: Tensor) -> tuple[tuple[Tensor, ...], Tensor]:
     """Known-start filter in every block at once, state dimension ``p > 1``: elements
     ``A, C, J`` `p x p x B x L x G`, ``b, eta`` `p x B x L x G`, and the terms at ``s_0 = 0``.
-
-    The filtered mean ``m`` and its derivative ``G`` in ``s_0`` share one `p x (p + 1)` stack
-    ``M = [G | m]`` (one product with ``F`` per position), and the innovation variances are
-    kept to take their logs in one call after the loop: the loop is a few dozen operations on
-    small tensors per position, so their number sets its time."""
+    The mean ``m`` and its derivative ``G`` in ``s_0`` share one stack ``M = [G | m]``, and the
+    logs are taken after the loop: the number of small operations sets its time."""
     p, shape = F.shape[1], y.shape[1:]
     eye = torch.eye(p, dtype=y.dtype, device=y.device).reshape(p, p, *[1] * len(shape))
     M = torch.cat([eye.expand(p, p, *shape), y.new_zeros(p, 1, *shape)], dim=1)  # [G | m]
