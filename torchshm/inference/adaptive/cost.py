@@ -8,8 +8,8 @@ hundred readings a vector costs a fraction of a millisecond in a batch; on a cam
 a sparse density per vector (kernel ``upscaled``: one elimination of the element grid per vector,
 about 0.2 s at 1.5e5 points) a round costs half an hour or more, longer than the model runs it saves.
 So before the design's runs the likelihood is timed once at rows drawn from the prior, with the
-data standing in for the emulator's mean (the cost does not depend on the values), and a round whose estimate exceeds :data:`WARN_ROUND_S` is announced
-with its figures and the alternative.
+data standing in for the emulator's mean (the cost does not depend on the values), and a round
+whose estimate exceeds :data:`WARN_ROUND_S` is announced with its figures and the alternative.
 """
 
 from __future__ import annotations
@@ -77,9 +77,9 @@ def estimate(problem: Problem, n_walkers: int, n_steps: int, final_steps: int, n
     mean = torch.nan_to_num(torch.as_tensor(problem.y, dtype=torch.float64))
 
     # timed as the chain, the mode search, the final step and the capped average call it: the
-    # plug-in likelihood, without the emulator's variance (which only the exploration's and
-    # the witness's few hundred points a round add), so a density that factorises once for
-    # load cases of equal noise (sigma_m = 0) is timed so
+    # plug-in likelihood without the emulator's variance (only the exploration's and the
+    # witness's few hundred points a round add it), so a density that factorises once for load
+    # cases of equal noise (sigma_m = 0) is timed as it runs
 
     def seconds(k: int) -> float:
         rows = torch.as_tensor(np.atleast_2d(problem.sample_prior(k, rng)), dtype=torch.float64)
