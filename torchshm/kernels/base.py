@@ -18,6 +18,7 @@ import torch
 from torch import Tensor
 
 from torchshm.arrays import as_float64
+from torchshm.kernels.table import distance_table, gather
 
 __all__ = ["MIN_LENGTH", "REGISTRY", "Kernel", "as_float64", "distances", "n_points", "scaled_distance"]
 
@@ -92,6 +93,8 @@ class Kernel(ABC):
     has_length: ClassVar[bool] = True
     #: whether every covariance matrix of distinct points is diagonal
     is_diagonal: ClassVar[bool] = False
+    #: whether coordinates enter through their L1 distance instead of the Euclidean one
+    l1: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Register a subclass that names itself (``name`` set in its own class body)."""
@@ -129,7 +132,9 @@ class Kernel(ABC):
         sigma_a: object = 1.0,
         length: object | None = None,
     ) -> Tensor:
-        """Covariance matrices ``K[..., i, j] = k(d(x1_i, x2_j))`` (:func:`distances`).
+        """Covariance matrices ``K[..., i, j] = k(d(x1_i, x2_j))`` (:func:`distances`; with
+        ``x2=None``, the correlation of each distinct distance of ``x1`` gathered into the
+        matrix, :mod:`torchshm.kernels.table`).
 
         Args:
             x1: `n` positions [m], or `n x d` coordinates [m] (Euclidean distance).
@@ -142,9 +147,13 @@ class Kernel(ABC):
             `... x n x m` covariances [µε²], float64.
         """
         x1 = as_float64(x1)
-        x2 = x1 if x2 is None else as_float64(x2)
         sigma_a, length = self._parameters(sigma_a, length)
-        d = distances(x1, x2)
+        if x2 is None and (table := distance_table(x1, l1=self.l1)) is not None:
+            values, index = table  # one correlation per distinct distance (kernels/table.py)
+            ell = None if length is None else length[..., None]
+            return gather(sigma_a[..., None].square() * self.correlation(values, ell), index)
+        x2 = x1 if x2 is None else as_float64(x2)
+        d = distances(x1, x2, l1=self.l1)
         ell = None if length is None else length[..., None, None]
         return sigma_a[..., None, None].square() * self.correlation(d, ell)
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from torch import Tensor
 
-from torchshm.kernels.base import as_float64, distances
+from torchshm.kernels.base import distances
 from torchshm.kernels.stationary import Exponential
 
 
@@ -42,21 +42,13 @@ class SeparableExponential(Exponential):
 
     ``sigma_a`` [µε] is the discrepancy's sd, ``length`` [m] its correlation length, the same in
     both directions. :meth:`correlation` is that of the distance it is given (``exp(-d / l)``);
-    :meth:`__call__` gives it the L1 distance of coordinates.
+    :meth:`__call__` gives it the L1 distance of coordinates (:attr:`l1`).
     """
 
     name = "separable_exponential"
     #: the likelihood's sparse form on a regular grid
     #: (:func:`torchshm.likelihood.choice.choose_method`, :mod:`torchshm.likelihood.lattice`)
     form = "lattice"
-
-    def __call__(self, x1: object, x2: object | None = None, *, sigma_a: object = 1.0,
-                 length: object | None = None) -> Tensor:
-        """Covariances `... x n x m` [µε²] of `n` positions or `n x d` coordinates ``x1`` [m]
-        with ``x2`` (``None``: ``x1``), at scales ``sigma_a`` `...` [µε] and lengths ``length``
-        (broadcastable) [m]; the distance is L1 (:func:`manhattan`)."""
-        x1 = as_float64(x1)
-        x2 = x1 if x2 is None else as_float64(x2)
-        sigma_a, length = self._parameters(sigma_a, length)
-        d = manhattan(x1, x2)
-        return sigma_a[..., None, None].square() * self.correlation(d, length[..., None, None])
+    #: coordinates enter through their L1 distance (:meth:`Kernel.__call__
+    #: <torchshm.kernels.base.Kernel.__call__>`, :func:`manhattan`)
+    l1 = True
