@@ -16,6 +16,7 @@ Usage (from the repository root)::
     OMP_NUM_THREADS=1 python scripts/make_references.py --fresh  # the second held-out set
     OMP_NUM_THREADS=1 python scripts/make_references.py --third  # the third held-out set
     OMP_NUM_THREADS=1 python scripts/make_references.py --edge   # the fourth: 1, 7, 8 parameters
+    OMP_NUM_THREADS=1 python scripts/make_references.py --fifth  # the fifth: 2, 3, 4, 6 parameters
 """
 
 from __future__ import annotations
@@ -120,7 +121,7 @@ def rehash(name: str) -> None:
 
 def _names(args: argparse.Namespace) -> list[str]:
     """The cases the command line names: a whole set (``--all``, ``--holdout``, ``--fresh``,
-    ``--third``, ``--edge``) or the ``--case`` ones."""
+    ``--third``, ``--edge``, ``--fifth``) or the ``--case`` ones."""
     if args.all:
         return list(CASES)
     chosen = [list(cases) for flag, cases in HELD_OUT.items() if getattr(args, flag)]
@@ -136,6 +137,8 @@ def main() -> None:
     parser.add_argument("--third", action="store_true", help="every case of the third held-out set (THIRD)")
     parser.add_argument("--edge", action="store_true", help="every case of the fourth held-out set (EDGE: "
                         "1, 7 and 8 physical parameters)")
+    parser.add_argument("--fifth", action="store_true", help="every case of the fifth held-out set (FIFTH: "
+                        "2, 3, 4 and 6 physical parameters, drawn 2026-11-29)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--rehash", action="store_true", help="only renew the definition hash of existing "
                         "references whose problem is unchanged (same log joint at their MAP, to 1e-3 nats)")

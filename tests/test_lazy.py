@@ -27,3 +27,25 @@ def test_the_packages_list_their_exports(package: object) -> None:
 def test_an_unknown_name_is_an_attribute_error_that_names_it() -> None:
     with pytest.raises(AttributeError, match="'torchshm' has no attribute 'identfy'"):
         torchshm.identfy  # noqa: B018
+
+
+def test_the_command_line_loads_without_the_methods_libraries() -> None:
+    """A refused command line (a config error, exit 2) imports neither the methods' libraries
+    nor scipy.stats: about 3 s of a 7 s refusal (docs/benchmarks.md, "The main job")."""
+    import subprocess
+    import sys
+
+    heavy = ("arviz", "sklearn", "emcee", "pyvbmc", "gpytorch", "matplotlib", "xarray", "scipy.stats")
+    code = ("import sys, torchshm.cli.identify, torchshm.inference.peer_errors; "
+            f"print([m for m in {heavy!r} if m in sys.modules])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_inference_exports_load_on_first_use() -> None:
+    import torchshm.inference as inference
+
+    assert set(inference.__all__) <= set(dir(inference))
+    assert inference.identify is torchshm.identify
+    with pytest.raises(AttributeError, match="has no attribute 'identfy'"):
+        inference.identfy  # noqa: B018

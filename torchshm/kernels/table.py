@@ -16,16 +16,20 @@ entries (scattered points), where the direct computation is as fast.
 
 from __future__ import annotations
 
+import math
 import weakref
 from collections import OrderedDict
 
 import torch
 from torch import Tensor
 
+from torchshm.kernels.distance import distances
+
 __all__ = ["MAX_POINTS", "distance_table", "gather"]
 
-#: largest number of points given a table (its index is `n x n`; the dense path's own limit)
-MAX_POINTS = 4096
+#: largest number of points given a table (its index is `n x n` int64, 32 MB at 2,048 points;
+#: above it the factorisation, `n³`, outweighs building the matrix)
+MAX_POINTS = 2048
 #: point sets remembered at once
 KEPT = 8
 
@@ -51,11 +55,9 @@ def distance_table(x: Tensor, d: Tensor | None = None, l1: bool = False) -> tupl
         _TABLES.move_to_end(key)
         return kept[2]
     if d is None:
-        from torchshm.kernels.base import distances
-
         d = distances(x, x, l1=l1)
     values, index = torch.unique(d, return_inverse=True)
-    table = (values, index.to(torch.int32)) if 4 * values.numel() <= n * n else None
+    table = (values, index) if 4 * values.numel() <= n * n else None
     _TABLES[key] = (weakref.ref(x), x._version, table)
     while len(_TABLES) > KEPT:
         _TABLES.popitem(last=False)
@@ -63,5 +65,10 @@ def distance_table(x: Tensor, d: Tensor | None = None, l1: bool = False) -> tupl
 
 
 def gather(values: Tensor, index: Tensor) -> Tensor:
-    """``values[..., index]``: `... x U` values on a `n x n` table index -> `... x n x n`."""
-    return values.index_select(-1, index.reshape(-1)).unflatten(-1, index.shape)
+    """``values[..., index]``: `... x U` values on a `n x n` table index -> `... x n x n`
+    (one vector: ``take``; several: rows of the transposed values, the faster gathers)."""
+    *lead, size = values.shape
+    if math.prod(lead) == 1:
+        return values.reshape(-1).take(index).reshape(*lead, *index.shape)
+    rows = values.reshape(-1, size).T.contiguous().index_select(0, index.reshape(-1))  # n² x B
+    return rows.T.reshape(*lead, *index.shape)

@@ -12,12 +12,16 @@ import math
 import numbers
 from abc import ABC, abstractmethod
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import torch
-from scipy import stats
 from torch import Tensor
 
 from torchshm.arrays import as_float64
+
+if TYPE_CHECKING:  # scipy.stats (1.5 s to import) is loaded by the first prior built
+    from scipy import stats
 
 #: quantiles of the default plausible bounds: the central 68.27 % (mean -/+ 1 sd of a normal)
 PLAUSIBLE_QUANTILES = (0.15865525393145707, 0.8413447460685429)

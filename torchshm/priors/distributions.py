@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import torch
-from scipy import stats
 from torch import Tensor
 
 from torchshm.priors.base import Bounds, Prior, bounds_pair, finite, positive
+
+if TYPE_CHECKING:
+    from scipy import stats
 
 
 class Uniform(Prior):
@@ -28,6 +31,8 @@ class Uniform(Prior):
         return (self.a, self.b)
 
     def _scipy(self) -> stats.rv_continuous:
+        from scipy import stats
+
         return stats.uniform(self.a, self.b - self.a)
 
     def _log_density(self, x: Tensor) -> Tensor:
@@ -64,6 +69,8 @@ class Gamma(Prior):
         return (0.0, math.inf)
 
     def _scipy(self) -> stats.rv_continuous:
+        from scipy import stats
+
         return stats.gamma(self.alpha, scale=1.0 / self.beta)
 
     def _log_density(self, x: Tensor) -> Tensor:
@@ -102,6 +109,8 @@ class Normal(Prior):
         return (-math.inf, math.inf)
 
     def _scipy(self) -> stats.rv_continuous:
+        from scipy import stats
+
         return stats.norm(self.mean, self.sd)
 
     def _log_density(self, x: Tensor) -> Tensor:
