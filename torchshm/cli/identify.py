@@ -37,6 +37,9 @@ PROG = "torchshm-identify"
 log = logging.getLogger(__name__)
 
 register_configs()  # also in the worker processes of a parallel sweep (joblib launcher)
+# ArviZ logs "arviz_base not installed" (x3) at INFO when it is first imported, which is now
+# inside the run (Hydra's loggers configured): keep it out of the console and the run's log
+logging.getLogger("arviz.preview").setLevel(logging.WARNING)
 
 
 @hydra.main(config_path=str(CONF_DIR), config_name=CONFIG_NAME, version_base="1.3")
@@ -46,10 +49,9 @@ def _app(cfg: DictConfig) -> float | None:
     Returns:
         The log evidence (ELBO) of the run, or None (emcee), for Hydra's sweepers.
     """
-    from torchshm.cli.job import prepare_job, run_job
+    from torchshm.cli.job import prepare_job, run_job  # the methods' libraries load here
 
     logging.captureWarnings(True)  # warnings go to the run's log, not to stderr
-    logging.getLogger("arviz.preview").setLevel(logging.WARNING)  # "arviz_base not installed" x3
     out_dir = Path(HydraConfig.get().runtime.output_dir)
     with bad_input_in_job(out_dir):  # only the inputs: a later failure is a failed run
         settings = to_settings(cfg)

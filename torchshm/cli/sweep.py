@@ -29,8 +29,6 @@ from typing import Any
 from hydra.experimental.callback import Callback
 from omegaconf import DictConfig
 
-from torchshm.inference.checks import warning_tags
-
 log = logging.getLogger(__name__)
 
 #: columns of comparison.csv
@@ -70,6 +68,8 @@ def job_row(folder: Path, name: str | None = None) -> dict[str, Any]:
     except (OSError, ValueError):
         row["status"] = "failed"
         return row
+    from torchshm.inference.checks import warning_tags  # the methods' libraries: not at Hydra's start
+
     coverage = [p["coverage"] for p in record.get("predictive") or []
                 if "coverage" in p and p.get("line", "all") == "all"]
     info = record.get("information") or {}
