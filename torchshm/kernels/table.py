@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import math
 import weakref
-from collections import OrderedDict
 
 import torch
 from torch import Tensor
@@ -33,18 +32,16 @@ MAX_POINTS = 2048
 #: point sets remembered at once
 KEPT = 8
 
-_TABLES: OrderedDict[tuple[int, bool], tuple[weakref.ref, int, tuple[Tensor, Tensor] | None]] = OrderedDict()
+_TABLES: dict[tuple[int, bool], tuple[weakref.ref, int, tuple[Tensor, Tensor] | None]] = {}
 
 
-def distance_table(x: Tensor, d: Tensor | None = None, l1: bool = False) -> tuple[Tensor, Tensor] | None:
+def distance_table(x: Tensor, l1: bool = False) -> tuple[Tensor, Tensor] | None:
     """Distinct distances ``values`` `U` [m] and ``index`` `n x n` (``values[index]`` is the
     distance matrix of ``x`` with itself), or ``None`` where a table does not pay.
 
     Args:
         x: `n` positions or `n x d` coordinates [m] (the key of the kept table).
-        d: the `n x n` distances of ``x`` with itself when already computed (else computed here,
-            only on a miss).
-        l1: L1 distances of coordinates (:func:`~torchshm.kernels.base.distances`).
+        l1: L1 distances of coordinates (:func:`~torchshm.kernels.distance.distances`).
     """
     n = int(x.shape[0])
     if x.requires_grad or n > MAX_POINTS or n < 2:
@@ -52,15 +49,12 @@ def distance_table(x: Tensor, d: Tensor | None = None, l1: bool = False) -> tupl
     key = (id(x), l1)
     kept = _TABLES.get(key)
     if kept is not None and kept[0]() is x and kept[1] == x._version:
-        _TABLES.move_to_end(key)
         return kept[2]
-    if d is None:
-        d = distances(x, x, l1=l1)
-    values, index = torch.unique(d, return_inverse=True)
+    values, index = torch.unique(distances(x, x, l1=l1), return_inverse=True)
     table = (values, index) if 4 * values.numel() <= n * n else None
     _TABLES[key] = (weakref.ref(x), x._version, table)
-    while len(_TABLES) > KEPT:
-        _TABLES.popitem(last=False)
+    while len(_TABLES) > KEPT:  # the oldest made go first
+        _TABLES.pop(next(iter(_TABLES)), None)
     return table
 
 
