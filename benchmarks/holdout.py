@@ -171,17 +171,27 @@ def generate(seed: int = SEED, n: int = N_CASES) -> dict[str, Case]:
     return {c.name: c for c in cases}
 
 
+def _mixed(seed: int, n: int, dims: tuple[int, ...], prefix: str, plate_share: float,
+           damage_share: float) -> dict[str, Case]:
+    """``n`` cases drawn from ``seed`` with ``dims[i % len(dims)]`` physical parameters: a
+    2-parameter case is a plate (:func:`_plate`) with probability ``plate_share``, a beam of 3 or
+    more has a localised damage with probability ``damage_share`` (no draw when it is 0)."""
+    rng = np.random.default_rng(seed)
+    cases = []
+    for i in range(n):
+        n_phys = dims[i % len(dims)]
+        plate = n_phys == 2 and bool(rng.random() < plate_share)
+        damage = damage_share > 0 and n_phys >= 3 and bool(rng.random() < damage_share)
+        cases.append(_plate(rng, i, prefix) if plate
+                     else _case(rng, i, n_phys=n_phys, prefix=prefix, damage=damage))
+    return {c.name: c for c in cases}
+
+
 def generate_fresh(seed: int = FRESH_SEED, n: int = N_FRESH) -> dict[str, Case]:
     """The second held-out set: ``n`` cases drawn from ``seed``, 2, 3, 4 and 6 physical
     parameters in turn, half of the 2-parameter ones plates read as image-correlation fields
     (:func:`_plate`), the others beams as :data:`HOLDOUT`'s; name -> :class:`Case`."""
-    rng = np.random.default_rng(seed)
-    cases = []
-    for i in range(n):
-        n_phys = (2, 3, 4, 6)[i % 4]
-        plate = n_phys == 2 and bool(rng.random() < 0.5)
-        cases.append(_plate(rng, i, "fresh") if plate else _case(rng, i, n_phys=n_phys, prefix="fresh"))
-    return {c.name: c for c in cases}
+    return _mixed(seed, n, (2, 3, 4, 6), "fresh", plate_share=0.5, damage_share=0.0)
 
 
 def generate_third(seed: int = THIRD_SEED, n: int = N_THIRD) -> dict[str, Case]:
@@ -189,15 +199,7 @@ def generate_third(seed: int = THIRD_SEED, n: int = N_THIRD) -> dict[str, Case]:
     in turn (5: a dimension the suite does not hold), half of the beams of 3 or more with a
     localised damage (its position and depth, a family neither earlier set holds), a third of
     the 2-parameter ones plates; name -> :class:`Case`."""
-    rng = np.random.default_rng(seed)
-    cases = []
-    for i in range(n):
-        n_phys = (2, 3, 4, 5)[i % 4]
-        plate = n_phys == 2 and bool(rng.random() < 1 / 3)
-        damage = n_phys >= 3 and bool(rng.random() < 0.5)
-        cases.append(_plate(rng, i, "third") if plate
-                     else _case(rng, i, n_phys=n_phys, prefix="third", damage=damage))
-    return {c.name: c for c in cases}
+    return _mixed(seed, n, (2, 3, 4, 5), "third", plate_share=1 / 3, damage_share=0.5)
 
 
 def generate_edge(seed: int = EDGE_SEED, n: int = N_EDGE) -> dict[str, Case]:
@@ -219,15 +221,7 @@ def generate_fifth(seed: int = FIFTH_SEED, n: int = N_FIFTH) -> dict[str, Case]:
     targets, 2, 3, 4 and 6 physical parameters in turn, a third of the 2-parameter ones plates,
     half of the beams of 3 or more with a localised damage (the families of :data:`FRESH` and
     :data:`THIRD` mixed); name -> :class:`Case`."""
-    rng = np.random.default_rng(seed)
-    cases = []
-    for i in range(n):
-        n_phys = (2, 3, 4, 6)[i % 4]
-        plate = n_phys == 2 and bool(rng.random() < 1 / 3)
-        damage = n_phys >= 3 and bool(rng.random() < 0.5)
-        cases.append(_plate(rng, i, "fifth") if plate
-                     else _case(rng, i, n_phys=n_phys, prefix="fifth", damage=damage))
-    return {c.name: c for c in cases}
+    return _mixed(seed, n, (2, 3, 4, 6), "fifth", plate_share=1 / 3, damage_share=0.5)
 
 
 #: the held-out cases the benchmarks report (name -> :class:`Case`)
