@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from torch import Tensor
 
-from torchshm.kernels.base import distances
+from torchshm.kernels.distance import distances
 from torchshm.kernels.stationary import Exponential
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 import numbers
 from abc import ABC, abstractmethod
-
 from typing import TYPE_CHECKING
 
 import numpy as np
