@@ -18,8 +18,9 @@ after it: 2, 3, 4 and 6 physical parameters in turn, some of the 2-parameter one
 as image-correlation fields (``scripts/make_references.py --fresh``,
 ``scripts/bench_identification.py --fresh``). :data:`THIRD` (a localised damage, five
 parameters) and :data:`EDGE` (one parameter, and six to eight) followed, each drawn after the
-last method change and run once (``--third``, ``--edge``). :data:`FIFTH` (2, 3, 4 and 6 parameters, plates and damages) was
-drawn on 2026-11-29, after the last method change, and run once (``--fifth``).
+last method change and run once (``--third``, ``--edge``). :data:`FIFTH` (2, 3, 4 and 6
+parameters; plates and damages by chance: the draw gave no plate and two damages) was drawn on
+2026-11-29, after the last method change, and run once (``--fifth``).
 """
 
 from __future__ import annotations
