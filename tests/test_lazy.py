@@ -31,7 +31,7 @@ def test_an_unknown_name_is_an_attribute_error_that_names_it() -> None:
 
 def test_the_command_line_loads_without_the_methods_libraries() -> None:
     """A refused command line (a config error, exit 2) imports neither the methods' libraries
-    nor scipy.stats: about 3 s of a 7 s refusal (docs/benchmarks.md, "The main job")."""
+    nor scipy.stats: about 4 s of an 8 s refusal (docs/benchmarks.md, "The main job")."""
     import subprocess
     import sys
 
