@@ -9,7 +9,9 @@ runs it (that test reads the block through the same collector; checked here).
 
 Budgets, kept small so that the whole test fits CI (stated here, applied only where the page
 gives none smaller): ``torchshm.identify`` runs VBMC with ``max_fun_evals`` <= 20 and
-``n_samples`` <= 2000, emcee with ``n_steps`` <= 60; the emulator as written.
+``n_samples`` <= 2000, emcee with ``n_steps`` <= 60; the emulator as written, but with
+``error_draws=2`` where the page gives none (the average of a capped run, the one part of its
+cost that is set by CPU seconds, not by the page's options).
 ``torchshm-identify`` gets the overrides :data:`CLI_BUDGET` of its method, unless the command
 sets that key itself. Every block runs with ``TORCHSHM_SMOKE=1``: the benchmark and study
 scripts then run with tiny sizes (a check that they run; each says so when it starts).
@@ -36,7 +38,8 @@ pytestmark = pytest.mark.slow
 CLI_BUDGET = {
     "vbmc": ["method.max_fun_evals=20", "method.n_samples=2000"],
     "emcee": ["method.n_steps=60", "method.n_walkers=8"],
-    "emulator": ["method.max_model_evaluations=12", "method.n_steps=60", "method.final_steps=60"],
+    "emulator": ["method.max_model_evaluations=12", "method.n_walkers=32", "method.n_steps=60",
+                 "method.final_steps=60", "method.error_draws=2"],
     "": ["predict.n=200"],
 }
 
@@ -68,6 +71,8 @@ def identify(problem, *args, **options):
         options["n_samples"] = min(options.get("n_samples", 2000), 2000)
     if method == "emcee":
         options["n_steps"] = min(options.get("n_steps", 60), 60)
+    if method == "emulator":
+        options.setdefault("error_draws", 2)
     return _identify(problem, *args, **options)
 
 

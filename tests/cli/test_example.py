@@ -18,7 +18,7 @@ from tests.docs_blocks import commands, run_by
 pytestmark = pytest.mark.slow
 
 BUDGET = ["method.max_model_evaluations=15", "method.n_steps=60", "method.final_steps=60",
-          "data.resolution=2", "predict.n=200"]
+          "method.error_draws=2", "data.resolution=2", "predict.n=200"]
 OUTPUTS = ("posterior.nc", "summary.csv", "corner.png", "trace.png", "predictive.csv",
            "predictive.png", "run.json", "identify.log")
 

@@ -81,6 +81,24 @@ def test_method_emcee_has_the_paper_settings(compose_cfg) -> None:
 def test_method_yaml_matches_schema_defaults(compose_cfg) -> None:
     assert to_settings(compose_cfg("method=vbmc")).method == VBMCConfig()
     assert to_settings(compose_cfg("method=emcee")).method == EmceeConfig()
+    assert to_settings(compose_cfg("method=emulator")).method == EmulatorConfig()
+
+
+def test_every_emulator_option_is_a_key_with_the_runners_default(compose_cfg) -> None:
+    """Each keyword of :func:`run_emulator` but where runs go (``n_jobs``, ``executor``: the
+    ``executor`` group) can be set from the command line, and its default there is the API's."""
+    import dataclasses
+    import inspect
+
+    from torchshm.inference.adaptive.method import run_emulator
+
+    api = {p.name: p.default for p in inspect.signature(run_emulator).parameters.values()
+           if p.default is not inspect.Parameter.empty}
+    keys = {f.name: getattr(EmulatorConfig(), f.name) for f in dataclasses.fields(EmulatorConfig)}
+    for name in set(api) - {"seed", "log_dir", "n_jobs", "executor"}:
+        assert name in keys and keys[name] == api[name], name
+    s = to_settings(compose_cfg("method.n_walkers=48", "method.error_draws=2"))
+    assert (method_options(s.method)["n_walkers"], method_options(s.method)["error_draws"]) == (48, 2)
 
 
 @pytest.mark.parametrize("option", ["0.1", "0.2", "0.5", "1", "2", "4"])

@@ -28,7 +28,7 @@ def test_wrong_type_or_value_is_rejected(compose_cfg, override: str, fragment: s
     assert fragment in str(info.value.__cause__)
 
 
-@pytest.mark.parametrize("override", ["bogus=1", "data.bogus=1", "method.n_walkers=8"])
+@pytest.mark.parametrize("override", ["bogus=1", "data.bogus=1", "method.n_samples=8"])
 def test_unknown_key_is_rejected_by_hydra(compose_cfg, override: str) -> None:
     with pytest.raises(ConfigCompositionException, match="Could not override"):
         compose_cfg(override)

@@ -17,7 +17,7 @@ EXAMPLE = REPO / "examples" / "calculix_slab"
 #: a smoke budget: the initial design of 5 runs, short chains, every 1 m of the fibre (the README
 #: states the full results)
 BUDGET = ["method=emulator", "method.max_model_evaluations=5", "method.n_steps=20",
-          "method.final_steps=30", "predict.n=100", "data.resolution=1"]
+          "method.final_steps=30", "method.error_draws=2", "predict.n=100", "data.resolution=1"]
 
 
 def readme_command(example: Path, blocks: list[Block]) -> list[str]:

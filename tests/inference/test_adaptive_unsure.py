@@ -118,3 +118,21 @@ def test_too_few_effective_draws_make_the_average_again_on_more_points(monkeypat
     assert again.ess == pytest.approx(2.5 * once.ess, rel=0.2)
     mean, sd = _exact_moments(problem)
     assert abs(again.draws.mean() - mean) < 0.15 * sd
+
+
+def test_a_fixed_number_of_error_draws_is_kept_and_repeats() -> None:
+    """``n_fields`` (the method's ``error_draws``) replaces the CPU-time budget: the average uses
+    exactly that many draws, and the same seed gives the same draws whatever the machine's
+    speed."""
+    import torchshm.inference.adaptive.unsure as unsure
+
+    assert unsure.fields_for(100.0, 3) == 3 and unsure.fields_for(1e-6, 3) == 3
+    assert unsure.fields_for(100.0) == unsure.MIN_FIELDS and unsure.fields_for(1e-6) == unsure.N_FIELDS
+    problem, model = _problem()
+    log_joint = _log_joint(problem, model, np.array([0.05, 0.35, 0.65, 0.95]))
+    draws = _plug_in_draws(log_joint)
+    box, plausible = np.array([[0.0, 1.0]]), np.array([[0.01, 0.99]])
+    one = average_over_errors(log_joint, draws, box, plausible, 2000, 0, n_fields=3)
+    two = average_over_errors(log_joint, draws, box, plausible, 2000, 0, n_fields=3)
+    assert one is not None and two is not None and one.n_fields == two.n_fields == 3
+    np.testing.assert_array_equal(one.draws, two.draws)

@@ -76,6 +76,7 @@ OPTION_REFUSALS = [
     ("emulator", {"final_steps": 0}, "final_steps (method.final_steps) must be an integer >= 1"),
     ("emulator", {"n_evidence": -5}, "n_evidence (method.n_evidence) must be an integer >= 1"),
     ("emulator", {"n_steps": 0}, "n_steps (method.n_steps) must be an integer >= 1"),
+    ("emulator", {"error_draws": 0}, "error_draws (method.error_draws) must be an integer >= 1"),
     ("vbmc", {"max_iter": 0}, "max_iter (method.max_iter) must be an integer >= 1"),
     ("vbmc", {"fun_eval_start": 1.5}, "fun_eval_start (method.fun_eval_start) must be an integer >= 1"),
 ]

@@ -31,7 +31,7 @@ BUDGETS = {
     "vbmc": {"max_fun_evals": 20, "display": "off", "n_samples": 600},
     "emcee": {"n_walkers": 40, "burn": 4},  # n_steps: 100 D kept draws, the fewest KL's mixture takes
     "emulator": {"max_model_evaluations": 10, "n_walkers": 24, "n_steps": 20, "final_steps": 30,
-                 "n_evidence": 600},
+                 "n_evidence": 600, "error_draws": 2},
 }
 
 

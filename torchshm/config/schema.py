@@ -138,12 +138,16 @@ class EmulatorConfig(MethodConfig):
     batch_size: int = 5  # model runs per round, evaluated concurrently
     max_model_evaluations: Optional[int] = None  # cap on model runs; None = 50 (D + 2), PyVBMC's
     n_initial: Optional[int] = None  # initial design; None = a multiple of batch_size >= 2 P + 1
-    n_steps: int = 100  # emcee steps per round on the emulated posterior (no model runs)
-    final_steps: int = 200  # emcee steps on the last emulator (fits the posterior density)
+    n_walkers: Optional[int] = None  # emcee walkers on the emulated posterior; None = max(96, 12 D)
+    n_steps: int = 50  # emcee steps per round on the emulated posterior (no model runs)
+    final_steps: int = 50  # emcee steps on the last emulator (fits the posterior density)
     tv_tol: float = 0.05  # stop when successive posteriors differ by less (total variation) ...
-    patience: int = 2  # ... in this many successive rounds
+    patience: int = 1  # ... in this many successive rounds
     sd_tol: float = 0.3  # ... the emulator's log-likelihood sd is below this [nats]
     check_tol: float = 1.0  # ... and the last batch was within this of the emulator [nats]
+    n_evidence: int = 8000  # importance samples of the log evidence and the posterior draws
+    emulator_kernel: str = "matern52"  # GP kernel of the field emulator: matern52 or rbf
+    error_draws: Optional[int] = None  # unconverged: emulator draws averaged over; None = 8-32 by time
 
 
 @dataclass

@@ -42,7 +42,7 @@ _RANGES: dict[str, tuple[str, float]] = {
     "burn": ("int", 0), "log_every": ("int", 1), "window": ("int", 1), "batch_size": ("int", 1),
     "max_model_evaluations": ("int", 0), "n_initial": ("int", 1), "final_steps": ("int", 1),
     "patience": ("int", 1), "n_evidence": ("int", 1), "max_iter": ("int", 1),
-    "fun_eval_start": ("int", 1), "tv_tol": ("float", 0.0), "sd_tol": ("float", 0.0),
+    "fun_eval_start": ("int", 1), "error_draws": ("int", 1), "tv_tol": ("float", 0.0), "sd_tol": ("float", 0.0),
 }
 
 

@@ -64,7 +64,7 @@ class OwnCost:
 
 
 def estimate(problem: Problem, n_walkers: int, n_steps: int, final_steps: int, n_evidence: int,
-             rng: np.random.Generator) -> OwnCost:
+             rng: np.random.Generator, error_draws: int | None = None) -> OwnCost:
     """Time the problem's likelihood on prior rows and scale it to a round and to the end.
 
     One vector is timed first (which also warms any cached plan up), then a batch: half the
@@ -93,10 +93,10 @@ def estimate(problem: Problem, n_walkers: int, n_steps: int, final_steps: int, n
     per = seconds(k) / k
     per_round = ROUND_FACTOR * n_walkers * n_steps * per
     per_pass = unsure.N_POINTS * per  # one pass of Eq. (21) over the average's points
-    capped = (1 + unsure.fields_for(per_pass)) * per_pass
+    capped = (1 + unsure.fields_for(per_pass, error_draws)) * per_pass
     most = unsure.MAX_POINTS * per
     return OwnCost(per, per_round, (n_evidence + n_walkers * final_steps) * per, capped,
-                   capped + (1 + unsure.fields_for(most)) * most)
+                   capped + (1 + unsure.fields_for(most, error_draws)) * most)
 
 
 def duration(seconds: float) -> str:

@@ -88,7 +88,8 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
     averaged = None
     if not converged:  # the emulator's uncertainty kept in the posterior (:mod:`.unsure`)
         averaged = average_over_errors(log_joint, np.asarray(samples), extra["hard"],
-                                       extra["plausible"], extra["n_evidence"], seed)
+                                       extra["plausible"], extra["n_evidence"], seed,
+                                       extra.get("error_draws"))
     if averaged is not None:
         samples, source = averaged.draws, "averaged over the emulator's errors"
         log_z_sd = float(np.hypot(log_z_sd, averaged.log_z_spread))

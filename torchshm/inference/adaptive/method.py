@@ -64,6 +64,7 @@ def run_emulator(
     n_initial: int | None = None, n_walkers: int | None = None, n_steps: int = 50,
     final_steps: int = 50, tv_tol: float = 0.05, patience: int = 1, sd_tol: float = 0.3,
     check_tol: float = 1.0, n_evidence: int = 8000, emulator_kernel: str = "matern52",
+    error_draws: int | None = None,
 ) -> Posterior:
     """Identify ``problem`` with the adaptive field emulator (see :func:`torchshm.identify`).
 
@@ -98,6 +99,11 @@ def run_emulator(
             beyond the runs' range (:data:`.final.EXTRAPOLATION_SHARE`).
         n_evidence: importance samples of the log evidence and the returned posterior draws.
         emulator_kernel: GP kernel of the field emulator, "matern52" or "rbf".
+        error_draws: when the cap ends the run before the stop rule holds, the joint draws of
+            the emulator its posterior is averaged over (:mod:`.unsure`). None: as many as
+            about 30 CPU seconds allow, 8 to 32, which depends on the machine's speed; a number
+            gives the same draws for a seed on any machine, and a small one (2-4) a cheaper,
+            rougher average (e.g. for smoke tests of a workflow).
 
     Returns:
         The :class:`Posterior` (``method="emulator"``); ``converged`` is the stop rule's verdict
@@ -115,7 +121,7 @@ def run_emulator(
         with blas.own_work():  # the same for NumPy's and SciPy's BLAS (a model run gets its own)
             return _run(problem, seed, log_dir, batch_size, max_model_evaluations, n_jobs, executor,
                         n_initial, n_walkers, n_steps, final_steps, tv_tol, patience, sd_tol,
-                        check_tol, n_evidence, emulator_kernel)
+                        check_tol, n_evidence, emulator_kernel, error_draws)
     finally:
         torch.set_num_threads(threads)
 
@@ -124,7 +130,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
          max_model_evaluations: int | None, n_jobs: int, executor: Any | None,
          n_initial: int | None, n_walkers: int | None, n_steps: int, final_steps: int,
          tv_tol: float, patience: int, sd_tol: float, check_tol: float, n_evidence: int,
-         emulator_kernel: str) -> Posterior:
+         emulator_kernel: str, error_draws: int | None = None) -> Posterior:
     """The rounds of :func:`run_emulator` (its arguments, in order)."""
     t0 = time.perf_counter()
     hard = np.asarray(problem.search_bounds, dtype=np.float64)
@@ -161,7 +167,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     x_index, loads = torch.arange(problem.y.shape[1], dtype=torch.float64), _loads(problem)
     if budget > 0:  # the own compute to expect, before the first model run
         cost.announce(problem, cost.estimate(problem, n_walkers, n_steps, final_steps, n_evidence,
-                                             np.random.default_rng([seed, 31])))
+                                             np.random.default_rng([seed, 31]), error_draws))
     if n_reused:
         where = ("from the store" if problem.store is not None
                  else "made earlier by this problem (e.g. the output check)")
@@ -268,7 +274,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     return finish(problem, log_joint, walkers, samples, rounds, runs, trace, converged, seed, {
         "n_final_steps": final_steps, "n_walkers": n_walkers, "n_evidence": n_evidence,
         "n_reused_runs": n_reused, "budget": budget, "t0": t0, "hard": hard,
-        "plausible": plausible, "hop": n_modes > 1,
+        "plausible": plausible, "hop": n_modes > 1, "error_draws": error_draws,
     })
 
 

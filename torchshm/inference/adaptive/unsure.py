@@ -80,10 +80,13 @@ class Averaged(NamedTuple):
     n_points: int = N_POINTS
 
 
-def fields_for(per_pass: float) -> int:
+def fields_for(per_pass: float, fixed: int | None = None) -> int:
     """Joint draws of the emulator to average over when one pass of Eq. (21) over the
     :data:`N_POINTS` points takes ``per_pass`` CPU seconds (:data:`BUDGET_S`, at least
-    :data:`MIN_FIELDS`, at most :data:`N_FIELDS`)."""
+    :data:`MIN_FIELDS`, at most :data:`N_FIELDS`), or ``fixed`` draws when it is given (the
+    method's ``error_draws``: the same number on any machine, so the same draws for a seed)."""
+    if fixed is not None:
+        return int(fixed)
     return int(min(N_FIELDS, max(MIN_FIELDS, BUDGET_S // max(per_pass, 1e-9))))
 
 
@@ -127,7 +130,8 @@ def error_fields(log_joint: EmulatedLogJoint, rows: np.ndarray, n_fields: int,
 
 
 def average_over_errors(log_joint: EmulatedLogJoint, draws: np.ndarray, hard: np.ndarray,
-                        plausible: np.ndarray, n: int, seed: int) -> Averaged | None:
+                        plausible: np.ndarray, n: int, seed: int,
+                        n_fields: int | None = None) -> Averaged | None:
     """The posterior of ``log_joint`` averaged over draws of its error (module docstring).
 
     Args:
@@ -136,6 +140,8 @@ def average_over_errors(log_joint: EmulatedLogJoint, draws: np.ndarray, hard: np
         hard, plausible: `D x 2` search and plausible bounds.
         n: draws to return.
         seed: seed of the proposal, the error draws and the resampling.
+        n_fields: joint draws of the emulator to average over (None: as many as
+            :data:`BUDGET_S` allows, :func:`fields_for`).
 
     Returns:
         The averaged posterior, or None when no proposal point has a finite log joint. Made
@@ -146,15 +152,15 @@ def average_over_errors(log_joint: EmulatedLogJoint, draws: np.ndarray, hard: np
     rng = np.random.default_rng([seed, 41])
     mix = fit_mixture(draws, sampling.transformer(hard, plausible), seed)
     proposal = mix.defensive(plausible, WIDEN, DEFENSIVE, SLABS)
-    out = _average(log_joint, proposal, N_POINTS, n, rng)
+    out = _average(log_joint, proposal, N_POINTS, n, rng, n_fields)
     if out is None or out.ess >= MIN_ESS:
         return out
     size = min(MAX_POINTS, int(np.ceil(N_POINTS * TARGET_ESS / max(out.ess, 1.0))))
-    return _average(log_joint, proposal, size, n, rng)  # the ESS grows with the points
+    return _average(log_joint, proposal, size, n, rng, n_fields)  # the ESS grows with the points
 
 
 def _average(log_joint: EmulatedLogJoint, proposal: Mixture, size: int, n: int,
-             rng: np.random.Generator) -> Averaged | None:
+             rng: np.random.Generator, fixed: int | None = None) -> Averaged | None:
     """:func:`average_over_errors` on ``size`` points of ``proposal`` (a :class:`.Mixture`)."""
     points = proposal.sample(size, rng)
     log_q = np.asarray(proposal.log_pdf(points), dtype=np.float64)
@@ -166,7 +172,7 @@ def _average(log_joint: EmulatedLogJoint, proposal: Mixture, size: int, n: int,
     start = time.process_time()
     plug_in = np.asarray(log_joint(points), dtype=np.float64)
     per_pass = max(time.process_time() - start, 1e-6)
-    n_fields = fields_for(per_pass)
+    n_fields = fields_for(per_pass, fixed)
     fields = error_fields(log_joint, points, n_fields, rng)  # K x S log joints
     log_w = fields - log_q[None, :]
     log_z = logsumexp(log_w, axis=1) - np.log(points.shape[0])  # K
