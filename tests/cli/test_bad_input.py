@@ -61,7 +61,7 @@ def test_unknown_load_case(cli, override: str, value: str) -> None:
         (["resolution=0.3"], ["Could not find 'resolution/0.3'", "0.5"]),
         (["+bogus=1"], ["unknown key 'bogus'"]),
         (["bogus=1"], ["Could not override 'bogus'"]),
-        (["method.n_walkers=8"], ["method.n_walkers", "EmulatorConfig"]),
+        (["method.n_samples=8"], ["method.n_samples", "EmulatorConfig"]),
         (["kernel.name=foo"], ["kernel.name=foo", "expected one of"]),
         (["seed=x"], ["seed=x", "Integer"]),
         (["kernel=["], ["cannot parse override 'kernel=['"]),
