@@ -60,8 +60,11 @@ def weighted_summary(samples: np.ndarray, weights: np.ndarray) -> dict[str, list
             "corr": np.round(cov / np.outer(sd, sd), 3).tolist()}
 
 
-def reference(case: Case, seed: int = 1, n_importance: int = 20000, max_steps: int = 20000) -> dict:
-    """The reference of one case (JSON-ready)."""
+def reference(case: Case, seed: int = 1, n_importance: int = 20000, max_steps: int = 20000,
+              n_box: int = 6, chunk: int = 500) -> dict:
+    """The reference of one case (JSON-ready): the MAP from the truth and ``n_box`` random
+    points of the plausible box, emcee from each mode in chunks of ``chunk`` steps (at most
+    ``max_steps``), importance sampling with ``n_importance`` draws."""
     t0 = time.process_time()
     problem = make_problem(case)
     names = list(problem.names)
@@ -76,11 +79,12 @@ def reference(case: Case, seed: int = 1, n_importance: int = 20000, max_steps: i
     for row, over in zip(extra, case.extra.get("starts", [])):
         row[[names.index(k) for k in over]] = list(over.values())
     rng = np.random.default_rng([seed, 2])
-    box = plaus[:, 0] + rng.random((6, len(names))) * scale
+    box = plaus[:, 0] + rng.random((n_box, len(names))) * scale
     starts = np.vstack([truth[None], box, *[e[None] for e in extra]])
     modes, optima = find_modes(log_joint, np.asarray(problem.hard_bounds), scale, starts)
     t_map = time.process_time() - t0
-    chains = [run_chain(log_joint, m, scale, np.asarray(problem.hard_bounds), seed + 10 * i, max_steps=max_steps)
+    chains = [run_chain(log_joint, m, scale, np.asarray(problem.hard_bounds), seed + 10 * i, chunk=chunk,
+                        max_steps=max_steps)
               for i, m in enumerate(modes)]
     samples = [c.pop("samples") for c in chains]
     imp = importance(log_joint, samples, n_importance, seed)
@@ -151,7 +155,8 @@ def main() -> None:
         return
     names, out, budget = _names(args), OUT, {}
     if SMOKE:  # written beside the references, never over them
-        names, out, budget = names[:1], OUT / "smoke", {"n_importance": 500, "max_steps": 500}
+        names, out = names[:1], OUT / "smoke"
+        budget = {"n_importance": 500, "max_steps": 200, "chunk": 200, "n_box": 1}
         out.mkdir(exist_ok=True)
         print(f"TORCHSHM_SMOKE=1: {names} only, short chains, into {out}: a check that the script runs")
     for name in names:
