@@ -85,6 +85,9 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
     result, vp, source = posterior_draws(log_joint, chain, extra["hard"], extra["plausible"],
                                          extra["n_evidence"], seed)
     log_z, log_z_sd, samples = result.log_z, result.sd, result.draws
+    spread = rounds[-1].get("evidence_sd", np.nan) if rounds else np.nan
+    if np.isfinite(spread):  # the stop rule's evidence sd from the emulator's errors, in the sd
+        log_z_sd = float(np.hypot(log_z_sd, spread))
     averaged = None
     if not converged:  # the emulator's uncertainty kept in the posterior (:mod:`.unsure`)
         averaged = average_over_errors(log_joint, np.asarray(samples), extra["hard"],

@@ -12,7 +12,9 @@ The steps, one round at a time:
 4. check the stop rule: the total variation between this round's posterior and the previous
    one's, or the one the emulator's uncertainty allows (:mod:`.witness`), is below ``tv_tol``
    in ``patience`` successive rounds, the emulator causes less than ``sd_tol`` nats of
-   log-likelihood uncertainty on average over the posterior, the batch just run was predicted
+   log-likelihood uncertainty on average over the posterior (to first order; where that fails,
+   its possible errors move the log evidence by less than ``sd_tol``: :func:`.evidence_spread`
+   over joint draws of it), the batch just run was predicted
    within ``check_tol`` nats (:mod:`.validation`) and no point of the box is unresolved
    (:mod:`.explore`); or the budget of model runs is spent;
 5. otherwise choose the next batch where the emulator's uncertainty matters most under the
@@ -47,6 +49,7 @@ from torchshm.inference.adaptive.final import (EXTRAPOLATION_SHARE, beyond_rows,
                                                 extrapolation_run, finish)
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, physical_columns
 from torchshm.inference.adaptive.runs import RunSet, run_batch
+from torchshm.inference.adaptive.unsure import evidence_spread
 from torchshm.inference.adaptive.validation import check_batch
 from torchshm.inference.adaptive.witness import tv_witness
 from torchshm.inference.posterior import Posterior
@@ -56,6 +59,9 @@ if TYPE_CHECKING:
     from torchshm.problem import Problem
 
 logger = logging.getLogger(__name__)
+#: posterior draws and joint draws of the emulator of the stop rule's evidence sd
+#: (:func:`.evidence_spread`; 16 draws: its sd known to about 18 %)
+EVIDENCE_DRAWS, EVIDENCE_FIELDS = 300, 16
 
 
 def run_emulator(
@@ -212,7 +218,14 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             # a batch of exploration runs alone (below) leaves the last posterior check standing
             checked = (check.passed(check_tol) if check is not None
                        else checked and batch_rows is not None and not len(batch_rows))
-            settled = calm >= patience and float(sd.mean()) < sd_tol and checked
+            # the sd term: to first order at each draw (cheap), else the log evidence's sd over
+            # joint draws of the emulator, which the first-order mean bounds from above
+            evidence_sd = (evidence_spread(log_joint, draws[:EVIDENCE_DRAWS], EVIDENCE_FIELDS,
+                                           np.random.default_rng([seed, 43, r]))
+                           if calm >= patience and checked and float(sd.mean()) >= sd_tol
+                           else np.nan)
+            sure = float(sd.mean()) < sd_tol or evidence_sd < sd_tol
+            settled = calm >= patience and sure and checked
             beyond = beyond_rows(draws, columns[0], runs.theta_p[:, columns[1]], hard)
             edge = edge_rows(draws, columns[0], runs.theta_p[:, columns[1]], hard)
             extrapolating = bool(edge.mean() >= EXTRAPOLATION_SHARE)  # the rule does not hold
@@ -226,7 +239,8 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                    "n_model_evaluations": float(runs.n_new), "n_emulator_runs":
                    float(runs.theta_p.shape[0]), "tv": tv, "tv_witness": witness, "mmtv": mmtv,
                    "n_modes": float(n_modes), "emulator_share": float(share.mean()), "emulator_share_max": float(share.max()),
-                   "emulator_loglik_sd": float(sd.mean()), "emulator_inflation": inflation,
+                   "emulator_loglik_sd": float(sd.mean()), "evidence_sd": evidence_sd,
+                   "emulator_inflation": inflation,
                    "check_loglik_error": check.max_error if check is not None else np.nan,
                    "settled": float(settled), "extrapolating": float(extrapolating),
                    "n_unresolved": float(scan.n_unresolved), "explore_margin": scan.margin,

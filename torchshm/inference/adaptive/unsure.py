@@ -129,6 +129,29 @@ def error_fields(log_joint: EmulatedLogJoint, rows: np.ndarray, n_fields: int,
     return out
 
 
+def evidence_spread(log_joint: EmulatedLogJoint, draws: np.ndarray, n_fields: int,
+                    rng: np.random.Generator) -> float:
+    """The sd [nats] of the log evidence over joint draws of the emulator's error, from draws
+    `S x D` of its plug-in posterior: for each of ``n_fields`` draws ``f``,
+    ``log Z_f - log Z = log E_post[exp(ℓ_f(θ) - ℓ(θ))]`` (:func:`error_fields`' error model),
+    and their sd (inf when fewer than 10 draws have finite values).
+
+    It is what the emulator's error does to the evidence. The first-order sd at each draw,
+    averaged over them (:meth:`EmulatedLogJoint.emulator_share`), bounds it from above: errors
+    that move the log-likelihood alike at every draw move log Z by as much, but errors that
+    differ across the posterior average out, and the first-order form takes the readings'
+    errors as independent. On ``fifth3_p6`` (eight parameters) the two were 0.63 and 0.04
+    nats at 120 runs, and 0.30 and 0.017 at 260.
+    """
+    plug_in = np.asarray(log_joint(draws), dtype=np.float64)
+    delta = error_fields(log_joint, draws, n_fields, rng) - plug_in[None, :]
+    ok = np.isfinite(delta).all(0)
+    if ok.sum() < 10:
+        return float("inf")
+    log_ratio = logsumexp(delta[:, ok], axis=1) - np.log(ok.sum())
+    return float(np.std(log_ratio, ddof=1))
+
+
 def average_over_errors(log_joint: EmulatedLogJoint, draws: np.ndarray, hard: np.ndarray,
                         plausible: np.ndarray, n: int, seed: int,
                         n_fields: int | None = None) -> Averaged | None:
@@ -187,4 +210,4 @@ def _average(log_joint: EmulatedLogJoint, proposal: Mixture, size: int, n: int,
 
 
 __all__ = ["Averaged", "MAX_POINTS", "MIN_ESS", "N_FIELDS", "N_POINTS", "TARGET_ESS",
-           "average_over_errors", "error_fields", "fields_for"]
+           "average_over_errors", "error_fields", "evidence_spread", "fields_for"]
