@@ -3,7 +3,8 @@
 Runs the emulator with its defaults on a case of the suite or of a held-out set and prints, per
 round, the terms its stop rule reads (``diagnostics["rounds"]``; ``docs/inference.md`` step 7):
 runs so far, TV to the previous round, the witness, the emulator's log-likelihood sd over the
-posterior, how far the last batch was off, the batch check's calibration, the unresolved points
+posterior, the log evidence's sd over joint draws of the emulator (where the rule needed it),
+how far the last batch was off, the batch check's calibration, the unresolved points
 of the box, the exploration's calibration, the share of draws at the runs' edge, the modes, and
 whether the posterior had settled, and (with a reference) how far the round's posterior means
 of the physical parameters lie from the reference's, in its sds; then the result beside it.
@@ -32,7 +33,7 @@ from benchmarks.holdout import KNOWN  # noqa: E402
 
 #: (row key, column title) of the printed table
 COLUMNS = (("n_emulator_runs", "runs"), ("tv", "TV"), ("tv_witness", "witness"),
-           ("emulator_loglik_sd", "sd"), ("check_loglik_error", "batch off"),
+           ("emulator_loglik_sd", "sd"), ("evidence_sd", "log Z sd"), ("check_loglik_error", "batch off"),
            ("emulator_inflation", "inflation"), ("n_unresolved", "unresolved"),
            ("explore_calibration", "explore c"), ("edge_runs", "edge"), ("n_modes", "modes"),
            ("settled", "settled"))
