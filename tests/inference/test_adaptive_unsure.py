@@ -146,11 +146,10 @@ def test_evidence_spread_matches_a_quadrature_of_the_drawn_evidences() -> None:
     first-order sd averaged over the posterior, which bounds it. Where it is poor (four runs)
     log Z over its draws is heavy-tailed (the sd of 128 draws ranged 0.31-0.60 over seeds):
     there it is only checked to be large, which is why the rule uses an upper bound of it
-    (``method.EVIDENCE_UPPER``)."""
+    (``unsure.EVIDENCE_UPPER``)."""
     from scipy.special import logsumexp
 
-    from torchshm.inference.adaptive.method import EVIDENCE_UPPER
-    from torchshm.inference.adaptive.unsure import evidence_spread
+    from torchshm.inference.adaptive.unsure import EVIDENCE_UPPER, evidence_spread
 
     problem, model = _problem()
     grid = np.linspace(1e-4, 1 - 1e-4, 801)[:, None]

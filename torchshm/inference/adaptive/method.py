@@ -42,6 +42,7 @@ from torchshm.inference.adaptive import cost
 from torchshm.inference.adaptive import modes as mode_search
 from torchshm.inference.adaptive import sampling
 from torchshm.inference.adaptive.acquisition import choose_batch, design
+from torchshm.inference.adaptive.budget import default_cap, default_n_initial  # noqa: F401 (API)
 from torchshm.inference.adaptive.explore import (beyond_posterior, explore, explore_calibration,
                                                   exploration_batch, with_modes)
 from torchshm.inference.adaptive.field import FieldEmulator, model_transform
@@ -49,7 +50,8 @@ from torchshm.inference.adaptive.final import (EXTRAPOLATION_SHARE, beyond_rows,
                                                 extrapolation_run, finish)
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, physical_columns
 from torchshm.inference.adaptive.runs import RunSet, run_batch
-from torchshm.inference.adaptive.unsure import evidence_spread
+from torchshm.inference.adaptive.unsure import (EVIDENCE_DRAWS, EVIDENCE_FIELDS, EVIDENCE_UPPER,
+                                                 evidence_spread)
 from torchshm.inference.adaptive.validation import check_batch
 from torchshm.inference.adaptive.witness import tv_witness
 from torchshm.inference.posterior import Posterior
@@ -59,13 +61,6 @@ if TYPE_CHECKING:
     from torchshm.problem import Problem
 
 logger = logging.getLogger(__name__)
-#: posterior draws and joint draws of the emulator of the stop rule's evidence sd
-#: (:func:`.evidence_spread`)
-EVIDENCE_DRAWS, EVIDENCE_FIELDS = 300, 16
-#: the rule compares the upper 95 % bound of that sd (chi-square, 15 degrees of freedom: 1.44
-#: times the estimate) with ``sd_tol``: where the emulator is poor, log Z over its draws is
-#: heavy-tailed and 16 draws can give a low sd by chance
-EVIDENCE_UPPER = 1.44
 
 
 def run_emulator(
@@ -109,11 +104,9 @@ def run_emulator(
             beyond the runs' range (:data:`.final.EXTRAPOLATION_SHARE`).
         n_evidence: importance samples of the log evidence and the returned posterior draws.
         emulator_kernel: GP kernel of the field emulator, "matern52" or "rbf".
-        error_draws: when the cap ends the run before the stop rule holds, the joint draws of
-            the emulator its posterior is averaged over (:mod:`.unsure`). None: as many as
-            about 30 CPU seconds allow, 8 to 32, which depends on the machine's speed; a number
-            gives the same draws for a seed on any machine, and a small one (2-4) a cheaper,
-            rougher average (e.g. for smoke tests of a workflow).
+        error_draws: joint draws of the emulator a capped run's posterior is averaged over
+            (:mod:`.unsure`; None: 8 to 32, as ~30 CPU s allow, so machine-dependent; a number
+            gives the same draws for a seed anywhere, a small one a cheap, rough average).
 
     Returns:
         The :class:`Posterior` (``method="emulator"``); ``converged`` is the stop rule's verdict
@@ -222,8 +215,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             # a batch of exploration runs alone (below) leaves the last posterior check standing
             checked = (check.passed(check_tol) if check is not None
                        else checked and batch_rows is not None and not len(batch_rows))
-            # the sd term: to first order at each draw (cheap), else the log evidence's sd over
-            # joint draws of the emulator, which the first-order mean bounds from above
+            # the sd term: first order (cheap), else log Z's sd over joint draws of the emulator
             evidence_sd = (evidence_spread(log_joint, draws[:EVIDENCE_DRAWS], EVIDENCE_FIELDS,
                                            np.random.default_rng([seed, 43, r]))
                            if calm >= patience and checked and float(sd.mean()) >= sd_tol
@@ -294,18 +286,6 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
         "n_reused_runs": n_reused, "budget": budget, "t0": t0, "hard": hard,
         "plausible": plausible, "hop": n_modes > 1, "error_draws": error_draws,
     })
-
-
-def default_n_initial(n_phys: int, batch_size: int) -> int:
-    """The default initial design for `P` physical parameters: the smallest multiple of
-    ``batch_size`` of at least ``2 P + 1``."""
-    return batch_size * max(1, -(-(2 * n_phys + 1) // batch_size))
-
-
-def default_cap(dim: int, n_initial: int, batch_size: int) -> int:
-    """The default cap on model runs: PyVBMC's budget, 50 (D + 2), for `D` inferred parameters
-    (at least the initial design and two batches)."""
-    return max(50 * (dim + 2), n_initial + 2 * batch_size)
 
 
 def _loads(problem: Problem) -> torch.Tensor:

@@ -56,6 +56,13 @@ CHUNK = 256
 #: CPU seconds the draws may take, from the time of one plug-in pass over the points (at
 #: least :data:`MIN_FIELDS` draws)
 BUDGET_S, MIN_FIELDS = 30.0, 8
+#: posterior draws and joint draws of the emulator of the stop rule's evidence sd
+#: (:func:`evidence_spread`)
+EVIDENCE_DRAWS, EVIDENCE_FIELDS = 300, 16
+#: the rule compares the upper 95 % bound of that sd (chi-square, 15 degrees of freedom: 1.44
+#: times the estimate) with ``sd_tol``: where the emulator is poor, log Z over its draws is
+#: heavy-tailed and 16 draws can give a low sd by chance
+EVIDENCE_UPPER = 1.44
 #: widening of the proposal around the plug-in posterior (its errors may move it far)
 WIDEN = 3.0
 #: shares of the proposal's defensive part and of its slabs over the plausible box
@@ -209,5 +216,5 @@ def _average(log_joint: EmulatedLogJoint, proposal: Mixture, size: int, n: int,
                     float(np.nanmedian(sd[heavy])), n_fields, int(points.shape[0]))
 
 
-__all__ = ["Averaged", "MAX_POINTS", "MIN_ESS", "N_FIELDS", "N_POINTS", "TARGET_ESS",
+__all__ = ["Averaged", "EVIDENCE_DRAWS", "EVIDENCE_FIELDS", "EVIDENCE_UPPER", "MAX_POINTS", "MIN_ESS", "N_FIELDS", "N_POINTS", "TARGET_ESS",
            "average_over_errors", "error_fields", "evidence_spread", "fields_for"]
