@@ -39,6 +39,7 @@ from torchshm.likelihood.choice import (  # the choice of form, and its threshol
     choose_method,
 )
 from torchshm.likelihood.cholesky import cholesky_with_jitter
+from torchshm.likelihood.dense import dense_log_density
 
 logger = logging.getLogger(__name__)
 #: seconds between two progress lines of long dense draws
@@ -107,7 +108,6 @@ class Eq21:
     def log_prob(self, y: Tensor) -> Tensor:
         """Log densities `B` of ``y`` (`L x n`), summed over load cases; -inf where a dense
         covariance cannot be factorised even with the largest jitter (differentiable)."""
-        n_loads, n = y.shape
         resid = y - self.eta
         noise = self._noise()  # B x L x n
         if self.method == "diagonal":
@@ -132,12 +132,8 @@ class Eq21:
             return fullscale.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length)
         if self._shared_noise:
             noise = noise[:, :1]  # identical for every load case: one factorisation
-        chol, failed = cholesky_with_jitter(covariance(self.x, self.kern, self.sigma_a, self.length, noise))
-        z = torch.linalg.solve_triangular(chol, resid.unsqueeze(-1), upper=False)
-        log_det = 2.0 * chol.diagonal(dim1=-2, dim2=-1).log().sum(-1)  # B x L'
-        log_det = log_det.sum(-1) * (n_loads / noise.shape[1])
-        value = -0.5 * (z.square().sum((-1, -2, -3)) + log_det + n_loads * n * LOG_2PI)
-        return torch.where(failed.any(-1), -torch.inf, value)
+        cov = covariance(self.x, self.kern, self.sigma_a, self.length, noise)
+        return dense_log_density(cov, resid)  # its gradient in closed form
 
     def sample(self, generator: torch.Generator) -> Tensor:
         """One draw `B x L x n` per response: ``eta + sigma_m eta z1 + f + e``.
