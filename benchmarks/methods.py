@@ -68,8 +68,8 @@ def run_torchshm(problem: Any, method: str, quick: bool, seed: int,
     convergence and rounds."""
     options: dict[str, Any] = {}
     if method == "emulator" and quick:
-        options = {"max_model_evaluations": 10, "n_steps": 60, "final_steps": 60, "n_evidence": 500,
-                   "error_draws": 2}
+        options = {"max_model_evaluations": 10, "n_walkers": 16, "n_steps": 60, "final_steps": 60,
+                   "n_evidence": 500, "error_draws": 2}
     elif method == "vbmc":
         options = {"n_samples": 20000, **({"max_fun_evals": 30} if quick else {})}
     elif method == "emcee":

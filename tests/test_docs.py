@@ -38,7 +38,7 @@ pytestmark = pytest.mark.slow
 CLI_BUDGET = {
     "vbmc": ["method.max_fun_evals=20", "method.n_samples=2000"],
     "emcee": ["method.n_steps=60", "method.n_walkers=8"],
-    "emulator": ["method.max_model_evaluations=12", "method.n_walkers=16", "method.n_steps=60",
+    "emulator": ["method.max_model_evaluations=8", "method.n_walkers=16", "method.n_steps=60",
                  "method.final_steps=60", "method.n_evidence=2000", "method.error_draws=2"],
     "": ["predict.n=200"],
 }
