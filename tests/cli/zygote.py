@@ -26,7 +26,7 @@ _CONTEXT: multiprocessing.context.ForkServerContext | None = None
 
 
 def enabled() -> bool:
-    """Whether commands are forked (``fork`` in :data:`multiprocessing.get_all_start_methods`
+    """Whether commands are forked (``forkserver`` among :func:`multiprocessing.get_all_start_methods`
     and not turned off by ``TORCHSHM_TEST_SUBPROCESS=1``)."""
     return (os.environ.get("TORCHSHM_TEST_SUBPROCESS") != "1"
             and "forkserver" in multiprocessing.get_all_start_methods())
