@@ -9,9 +9,9 @@ runs it (that test reads the block through the same collector; checked here).
 
 Budgets, kept small so that the whole test fits CI (stated here, applied only where the page
 gives none smaller): ``torchshm.identify`` runs VBMC with ``max_fun_evals`` <= 20 and
-``n_samples`` <= 2000, emcee with ``n_steps`` <= 60; the emulator as written, but with
-``error_draws=2`` where the page gives none (the average of a capped run, the one part of its
-cost that is set by CPU seconds, not by the page's options).
+``n_samples`` <= 2000, emcee with ``n_steps`` <= 60, the emulator with the options of
+:data:`CLI_BUDGET` that the page does not set itself (a cap of 8 model runs, 16 walkers, short
+chains, 2 error draws: a check that the page's code runs, not that it converges).
 ``torchshm-identify`` gets the overrides :data:`CLI_BUDGET` of its method, unless the command
 sets that key itself. Every block runs with ``TORCHSHM_SMOKE=1``: the benchmark and study
 scripts then run with tiny sizes (a check that they run; each says so when it starts).
@@ -38,8 +38,8 @@ pytestmark = pytest.mark.slow
 CLI_BUDGET = {
     "vbmc": ["method.max_fun_evals=20", "method.n_samples=2000"],
     "emcee": ["method.n_steps=60", "method.n_walkers=8"],
-    "emulator": ["method.max_model_evaluations=8", "method.n_walkers=16", "method.n_steps=60",
-                 "method.final_steps=60", "method.n_evidence=2000", "method.error_draws=2"],
+    "emulator": ["method.max_model_evaluations=8", "method.n_walkers=16", "method.n_steps=30",
+                 "method.final_steps=30", "method.n_evidence=1000", "method.error_draws=2"],
     "": ["predict.n=200"],
 }
 
@@ -71,8 +71,9 @@ def identify(problem, *args, **options):
         options["n_samples"] = min(options.get("n_samples", 2000), 2000)
     if method == "emcee":
         options["n_steps"] = min(options.get("n_steps", 60), 60)
-    if method == "emulator":
-        options.setdefault("error_draws", 2)
+    if method == "emulator":  # as CLI_BUDGET's, where the block does not set them itself
+        for key, value in EMULATOR_BUDGET.items():
+            options.setdefault(key, value)
     return _identify(problem, *args, **options)
 
 
@@ -112,7 +113,8 @@ def sandbox(tmp_path_factory: pytest.TempPathFactory) -> Path:
     script = root / ".venv" / "bin" / "torchshm-identify"
     script.write_text(_CLI.format(python=python, budget=CLI_BUDGET))
     script.chmod(0o755)
-    (root / ".docs_test.py").write_text(_PYTHON)
+    emulator = {k.split("=")[0].removeprefix("method."): int(k.split("=")[1]) for k in CLI_BUDGET["emulator"]}
+    (root / ".docs_test.py").write_text(_PYTHON.replace("EMULATOR_BUDGET", repr(emulator)))
     return root
 
 
