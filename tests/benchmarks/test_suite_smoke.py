@@ -80,3 +80,18 @@ def test_trace_script_prints_the_rounds() -> None:
     assert lines[0].split()[:3] == ["round", "runs", "TV"] and "settled" in lines[0]
     assert any(line.startswith("converged False") for line in lines)  # the cap of 5 ends it
     assert any("reference" in line for line in lines)
+
+
+@pytest.mark.slow
+def test_trace_exploration_prints_the_rounds() -> None:
+    """``scripts/trace_exploration.py``: per round, the rule's unresolved points beside the
+    drawn-error and Gaussian-tail readings (a small cap: a check that it runs)."""
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "trace_exploration.py"), "edge2_p1", "--options",
+         '{"max_model_evaluations": 5}'], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    lines = proc.stdout.splitlines()
+    assert lines[0].split()[:5] == ["round", "runs", "rule", "linear", "drawn"]
+    rounds = [line.split() for line in lines[1:] if line.split() and line.split()[0].isdigit()]
+    assert rounds and all(int(r[3]) >= int(r[4]) >= 0 for r in rounds)  # drawn: among the linear ones
+    assert lines[-1].startswith("converged False")
