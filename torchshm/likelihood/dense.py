@@ -17,7 +17,6 @@ jittered matrix, as autograd's would be. The second derivative is not provided.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import torch
@@ -25,8 +24,7 @@ from torch import Tensor
 from torch.autograd.function import once_differentiable
 
 from torchshm.likelihood.cholesky import cholesky_with_jitter
-
-LOG_2PI = math.log(2.0 * math.pi)
+from torchshm.likelihood.constants import LOG_2PI
 
 
 def dense_log_density(cov: Tensor, resid: Tensor) -> Tensor:

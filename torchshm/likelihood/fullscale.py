@@ -27,7 +27,6 @@ Cost O(n (m³ + m² r + r²)) time, O(n r) memory; plain torch, differentiable, 
 
 from __future__ import annotations
 
-import math
 
 import torch
 from torch import Tensor
@@ -36,8 +35,8 @@ from torchshm.kernels import Kernel
 from torchshm.kernels.base import distances
 from torchshm.likelihood import fullscale_choice, neighbours, vecchia
 from torchshm.likelihood.cholesky import cholesky_with_jitter
+from torchshm.likelihood.constants import LOG_2PI
 
-LOG_2PI = math.log(2.0 * math.pi)
 #: rows of the low-rank factor computed at once [bytes of `B x rows x r` float64]
 CHUNK_BYTES = 2**24
 #: largest stored block distances of the plan [bytes] (:func:`neighbours_for`)

@@ -29,12 +29,11 @@ import torch
 from scipy.signal import lfilter
 from torch import Tensor
 
+from torchshm.likelihood.constants import LOG_2PI
 from torchshm.likelihood.lattice_frontal import eliminate
 from torchshm.likelihood.lattice_order import Grid, lattice
 
 __all__ = ["Grid", "lattice", "log_density", "same_noise", "sample"]
-
-LOG_2PI = math.log(2.0 * math.pi)
 
 
 def _factors(pitch: float, length: Tensor) -> tuple[Tensor, Tensor]:

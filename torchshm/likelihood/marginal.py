@@ -21,7 +21,6 @@ regular grid, exact, sparse, differentiable, CPU, :mod:`~torchshm.likelihood.lat
 from __future__ import annotations
 
 import logging
-import math
 import time
 from dataclasses import dataclass
 
@@ -39,13 +38,13 @@ from torchshm.likelihood.choice import (  # the choice of form, and its threshol
     choose_method,
 )
 from torchshm.likelihood.cholesky import cholesky_with_jitter
+from torchshm.likelihood.constants import LOG_2PI
 from torchshm.likelihood.dense import dense_log_density
 
 logger = logging.getLogger(__name__)
 #: seconds between two progress lines of long dense draws
 PROGRESS_EVERY_S = 15.0
 
-LOG_2PI = math.log(2.0 * math.pi)
 #: largest dense covariance batch [bytes] built and factorised at once when sampling
 SAMPLE_CHUNK_BYTES = 2**21
 

@@ -35,8 +35,8 @@ import torch
 from torch import Tensor
 
 from torchshm.kernels import Kernel
+from torchshm.likelihood.constants import LOG_2PI
 
-LOG_2PI = math.log(2.0 * math.pi)
 #: block size ``isqrt(n * BLOCK_FACTOR[p])`` for state dimension ``p`` (measured, docs/benchmarks.md)
 BLOCK_FACTOR = {1: 0.6, 2: 1.2, 3: 1.2}
 #: a batch of vectors (walkers, draws) gains from the state space from this many points per line

@@ -32,7 +32,6 @@ global correlation share nodes, so their noise is correlated (``examples/plate_d
 
 from __future__ import annotations
 
-import math
 import warnings
 
 import numpy as np
@@ -42,10 +41,9 @@ from scipy.sparse.linalg import splu
 from torch import Tensor
 
 from torchshm.kernels.upscaled import cells, operator
+from torchshm.likelihood.constants import LOG_2PI
 from torchshm.likelihood.lattice import same_noise
 from torchshm.likelihood.lattice_frontal import eliminate
-
-LOG_2PI = math.log(2.0 * math.pi)
 
 
 #: the whole element grid is eliminated (torch, differentiable) while it has at most this many

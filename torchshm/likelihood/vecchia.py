@@ -22,7 +22,6 @@ sparse triangular solve (:func:`sample`).
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import scipy.sparse
@@ -33,8 +32,8 @@ from torch import Tensor
 from torchshm.kernels import Kernel
 from torchshm.likelihood import neighbours
 from torchshm.likelihood.cholesky import cholesky_with_jitter
+from torchshm.likelihood.constants import LOG_2PI
 
-LOG_2PI = math.log(2.0 * math.pi)
 #: largest batch of (m+1) x (m+1) blocks [bytes] built at once
 CHUNK_BYTES = 2**24
 #: neighbours per point by kernel (smoother kernels need more; ``docs/likelihood.md``)
