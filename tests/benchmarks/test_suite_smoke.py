@@ -95,3 +95,18 @@ def test_trace_exploration_prints_the_rounds() -> None:
     rounds = [line.split() for line in lines[1:] if line.split() and line.split()[0].isdigit()]
     assert rounds and all(int(r[3]) >= int(r[4]) >= 0 for r in rounds)  # drawn: among the linear ones
     assert lines[-1].startswith("converged False")
+
+
+@pytest.mark.slow
+def test_flank_experiment_prints_its_row() -> None:
+    """``scripts/bench_flank.py``: the emulator with the whitened flank test patched in (a small
+    cap and short chains: a check that it runs)."""
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "bench_flank.py"), "--cases", "edge2_p1",
+         "--variants", "whitened", "--options",
+         '{"max_model_evaluations": 5, "n_walkers": 16, "n_steps": 20, "final_steps": 20, '
+         '"n_evidence": 500, "error_draws": 2}'], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    rows = [json.loads(line[4:]) for line in proc.stdout.splitlines() if line.startswith("ROW ")]
+    assert [r["variant"] for r in rows] == ["whitened"]
+    assert all(r["case"] == "edge2_p1" and r["runs"] > 0 for r in rows)
