@@ -34,6 +34,7 @@ import bench_identification  # noqa: E402
 from benchmarks.holdout import KNOWN  # noqa: E402
 from torchshm.inference.adaptive import explore as exploration  # noqa: E402
 from torchshm.inference.adaptive import method  # noqa: E402
+from trace_exploration import whitened_distance  # noqa: E402
 
 #: tail mass outside the whitened flank's radius
 TAIL = 1e-9
@@ -49,10 +50,7 @@ def whitened(scan: exploration.Exploration, draws: np.ndarray, columns: list[int
     dim = draws.shape[1]
     if not kept.n_unresolved or draws.shape[0] < 3 * dim:
         return kept
-    cov = np.atleast_2d(np.cov(draws.T))
-    factor = np.linalg.cholesky(cov + 1e-12 * np.diag(np.diag(cov)).clip(1e-300))
-    m = np.linalg.norm(np.linalg.solve(factor, (kept.rows - draws.mean(0)).T), axis=0)
-    outside = m > np.sqrt(chi2.ppf(1.0 - TAIL, dim))
+    outside = whitened_distance(kept.rows, draws) > np.sqrt(chi2.ppf(1.0 - TAIL, dim))
     return exploration.Exploration(kept.rows[outside], kept.z[outside], kept.margin, kept.top)
 
 

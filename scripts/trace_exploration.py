@@ -90,6 +90,14 @@ def main() -> None:
           f"this script's draws included)")
 
 
+def whitened_distance(rows: np.ndarray, draws: np.ndarray) -> np.ndarray:
+    """Mahalanobis distances `U` of rows `U x D` from the mean of draws `S x D`, in the draws'
+    covariance."""
+    cov = np.atleast_2d(np.cov(draws.T))
+    factor = np.linalg.cholesky(cov + 1e-12 * np.diag(np.diag(cov)).clip(1e-300))
+    return np.linalg.norm(np.linalg.solve(factor, (rows - draws.mean(0)).T), axis=0)
+
+
 def _drawn(log_joint: EmulatedLogJoint, scan: exploration.Exploration, calibration: float,
            round_: int) -> dict[str, int]:
     """The unresolved points (before the flank test) by the exact Eq. (21) at drawn errors."""
@@ -114,9 +122,7 @@ def _tail(log_joint: EmulatedLogJoint, calibration: float, kept: exploration.Exp
     """Where the points kept by the flank test lie against the found mode's Gaussian."""
     if not kept.n_unresolved:
         return {"flank": 0}
-    centre, cov = draws.mean(0), np.atleast_2d(np.cov(draws.T))
-    factor = np.linalg.cholesky(cov + 1e-12 * np.diag(np.diag(cov)).clip(1e-300))
-    m = np.linalg.norm(np.linalg.solve(factor, (kept.rows - centre).T), axis=0)
+    m = whitened_distance(kept.rows, draws)
     mean, sd = log_joint.value_and_sd(kept.rows)
     upper = mean + exploration.KAPPA * max(1.0, calibration) * sd
     above = upper - (float(np.max(log_joint(draws))) - 0.5 * m**2)
