@@ -85,3 +85,26 @@ def test_a_task_dask_gave_up_on_is_stored_failed_a_broken_pool_is_not(tmp_path: 
     assert "KilledWorker" in result.errors[0] and "BrokenProcessPool" in result.errors[1]
     assert store.count(model) == 2 and store.count(model, status="failed") == 1
     assert evaluate(model, DESIGN, store=store).n_new == 1  # the broken pool's run, never stored
+
+
+class _Recomputing:
+    """An executor that runs every task twice, as Dask does when the worker holding a finished
+    result dies before the result is collected: the first result is lost."""
+
+    def submit(self, fn, task, key):
+        from concurrent.futures import Future
+
+        fn(task, key)  # finished on a worker that then died: its result never arrives
+        future: Future = Future()
+        future.set_result(fn(task, key))
+        return future
+
+
+def test_a_result_lost_with_its_worker_is_taken_from_the_spool_not_run_again(tmp_path: Path) -> None:
+    store = EvaluationStore(tmp_path / "s.sqlite")
+    model = Counted(str(tmp_path / "calls.txt"))
+    result = evaluate(model, DESIGN, store=store, executor=_Recomputing())
+    assert sorted(a for a, *_ in calls(tmp_path / "calls.txt")) == [1.0, 2.0, 3.0]  # once each
+    reference = evaluate(Counted(str(tmp_path / "ref.txt")), DESIGN)
+    assert np.array_equal(result.outputs, reference.outputs) and store.count(model) == 3
+    assert not list(store.spool_folder.glob("*.npz"))  # the deposits were ingested

@@ -4,7 +4,10 @@ The executor gets one task per θp (``executor.submit(fn, task, key)``; a Dask c
 ``submit(..., pure=False)``) and returns a future with ``done()`` and ``result()``. The worker
 runs the model and returns the record; this process stores each record as soon as its future is
 done, so workers need no access to the store (a Dask worker on another machine cannot open the
-SQLite file). Before submitting, this process claims each θp in the store
+SQLite file). A worker that can reach the store's folder (same host or a shared file system)
+also deposits the record in the store's spool as soon as the run ends, and looks there before
+running: a result that finished on a worker killed before this process collected it is taken
+from the spool when Dask runs the task again, not computed twice. Before submitting, this process claims each θp in the store
 (:mod:`torchshm.storage.claims`), so that another study sharing the store does not run it too;
 a θp that another live process is running is waited for, then taken from the store.
 
@@ -26,7 +29,7 @@ from concurrent.futures import BrokenExecutor, CancelledError
 from collections.abc import Sequence
 from typing import Any
 
-from torchshm.storage import claims
+from torchshm.storage import claims, spool
 from torchshm.storage.keys import key_theta
 from torchshm.storage.record import Record, error_text, run_model
 from torchshm.storage.runners import Outcome, Task, failed_record
@@ -58,7 +61,8 @@ def run_futures(task: Task, keys: Sequence[str], executor: Any) -> Outcome:
     Returns:
         key -> record, and the number of model runs submitted.
     """
-    store, remote = task.store, dataclasses.replace(task, store=None)
+    store = task.store
+    remote = dataclasses.replace(task, store=None, spool=None if store is None else store.spool_folder)
     records: dict[str, Record] = {}
     mine, held = _claim_all(task, keys, records)
     calls = 0
@@ -151,9 +155,25 @@ def _outcome(task: Task, key: str, future: Any) -> tuple[Record, bool]:
 
 
 def run_remote(task: Task, key: str) -> Record:
-    """Run one key in a worker and return its record (the caller stores it)."""
+    """Run one key in a worker and return its record (the caller stores it).
+
+    Where the worker reaches the store's spool folder, a record of this key already deposited
+    there (a run whose result was lost with its worker before it was collected) is returned
+    without running the model, and a new record is deposited there before it is returned.
+    """
+    folder = task.spool if task.spool is not None and task.spool.parent.is_dir() else None
+    if folder is not None:
+        found = spool.find(folder, task.identity, key)
+        if found is not None and (found.ok or not task.retry_failed):
+            return found
     with watch_owner(task.owner):
-        return run_model(task.model, task.identity, key, key_theta(key), task.shape)
+        record = run_model(task.model, task.identity, key, key_theta(key), task.shape)
+    if folder is not None:
+        try:
+            spool.deposit(folder, record)
+        except OSError as exc:  # the caller still stores the record it receives
+            logger.warning("cannot deposit the run at θp=[%s] in %s: %s", key, folder, exc)
+    return record
 
 
 __all__ = ["check_executor", "is_dask_client", "run_futures", "run_remote"]

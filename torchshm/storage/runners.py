@@ -19,6 +19,7 @@ import os
 import socket
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import joblib
@@ -49,6 +50,8 @@ class Task:
         retry_failed: whether a stored failure is run again.
         owner: the process that asked for the runs; a worker on its host ends when it dies
             (:mod:`torchshm.storage.watchdog`).
+        spool: the store's spool folder, for a worker that has no store but may reach the
+            folder (:func:`torchshm.storage.futures.run_remote`); None otherwise.
     """
 
     model: ForwardModel
@@ -57,6 +60,7 @@ class Task:
     store: EvaluationStore | None
     retry_failed: bool = False
     owner: Owner | None = None
+    spool: Path | None = None
 
 
 #: a runner's result: key -> record, and the number of model calls made

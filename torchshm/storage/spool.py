@@ -26,8 +26,7 @@ logger = logging.getLogger(__name__)
 def deposit(folder: Path, record: Record) -> Path:
     """Write one record durably as ``<folder>/<hash>-<uuid>.npz``; returns its path."""
     folder.mkdir(parents=True, exist_ok=True)
-    digest = hashlib.sha256(f"{record.model}\0{record.key}".encode()).hexdigest()[:16]
-    name = f"{digest}-{uuid.uuid4().hex[:12]}.npz"
+    name = f"{_digest(record.model, record.key)}-{uuid.uuid4().hex[:12]}.npz"
     temporary, final = folder / f".tmp-{name}", folder / name
     meta = dict(record.metadata(), checksum=record.checksum)
     outputs = np.empty((0, 0)) if record.outputs is None else record.outputs
@@ -42,6 +41,23 @@ def deposit(folder: Path, record: Record) -> Path:
     os.replace(temporary, final)
     _fsync_folder(folder)
     return final
+
+
+def find(folder: Path, model: str, key: str) -> Record | None:
+    """A complete, readable record of ``model`` at ``key`` deposited in ``folder``, or None.
+
+    Successful records are preferred to failed ones; unreadable files are skipped (the next
+    :func:`ingest` rejects them).
+    """
+    found = None
+    for path in sorted(folder.glob(f"{_digest(model, key)}-*.npz")):
+        try:
+            record = read(path)
+        except (ValueError, OSError):
+            continue
+        if record.model == model and record.key == key and (found is None or record.ok):
+            found = record
+    return found
 
 
 def read(path: Path) -> Record:
@@ -87,6 +103,11 @@ def ingest(folder: Path, put: Callable[[Record], bool]) -> int:
         path.unlink(missing_ok=True)
         count += 1
     return count
+
+
+def _digest(model: str, key: str) -> str:
+    """File-name prefix shared by every spool file of one model and θp."""
+    return hashlib.sha256(f"{model}\0{key}".encode()).hexdigest()[:16]
 
 
 def _fsync_folder(folder: Path) -> None:
