@@ -17,6 +17,7 @@ Usage (from the repository root)::
     OMP_NUM_THREADS=1 python scripts/make_references.py --third  # the third held-out set
     OMP_NUM_THREADS=1 python scripts/make_references.py --edge   # the fourth: 1, 7, 8 parameters
     OMP_NUM_THREADS=1 python scripts/make_references.py --fifth  # the fifth: 2, 3, 4, 6 parameters
+    OMP_NUM_THREADS=1 python scripts/make_references.py --sixth  # the sixth: the same, another seed
 """
 
 from __future__ import annotations
@@ -125,7 +126,7 @@ def rehash(name: str) -> None:
 
 def _names(args: argparse.Namespace) -> list[str]:
     """The cases the command line names: a whole set (``--all``, ``--holdout``, ``--fresh``,
-    ``--third``, ``--edge``, ``--fifth``) or the ``--case`` ones."""
+    ``--third``, ``--edge``, ``--fifth``, ``--sixth``) or the ``--case`` ones."""
     if args.all:
         return list(CASES)
     chosen = [list(cases) for flag, cases in HELD_OUT.items() if getattr(args, flag)]
@@ -143,6 +144,8 @@ def main() -> None:
                         "1, 7 and 8 physical parameters)")
     parser.add_argument("--fifth", action="store_true", help="every case of the fifth held-out set (FIFTH: "
                         "2, 3, 4 and 6 physical parameters, drawn 2026-11-29)")
+    parser.add_argument("--sixth", action="store_true", help="every case of the sixth held-out set (SIXTH: "
+                        "2, 3, 4 and 6 physical parameters, drawn 2026-11-29 22:00 UTC)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--rehash", action="store_true", help="only renew the definition hash of existing "
                         "references whose problem is unchanged (same log joint at their MAP, to 1e-3 nats)")

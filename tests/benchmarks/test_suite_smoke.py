@@ -110,3 +110,17 @@ def test_flank_experiment_prints_its_row() -> None:
     rows = [json.loads(line[4:]) for line in proc.stdout.splitlines() if line.startswith("ROW ")]
     assert [r["variant"] for r in rows] == ["whitened"]
     assert all(r["case"] == "edge2_p1" and r["runs"] > 0 for r in rows)
+
+
+@pytest.mark.slow
+def test_early_batch_experiment_prints_its_row() -> None:
+    """``scripts/bench_early_batch.py``: the emulator with its unsure rounds' draws averaged
+    over the emulator's errors (a small cap and short chains: a check that it runs)."""
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "bench_early_batch.py"), "--cases", "edge2_p1",
+         "--variants", "averaged", "--fields", "2", "--options",
+         '{"max_model_evaluations": 5, "n_walkers": 16, "n_steps": 20, "final_steps": 20, '
+         '"n_evidence": 500, "error_draws": 2}'], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    rows = [json.loads(line[4:]) for line in proc.stdout.splitlines() if line.startswith("ROW ")]
+    assert [r["variant"] for r in rows] == ["averaged"] and rows[0]["runs"] > 0

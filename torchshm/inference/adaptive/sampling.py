@@ -15,7 +15,6 @@ from __future__ import annotations
 import warnings
 from typing import Callable, NamedTuple, Protocol
 
-import arviz as az
 import emcee
 import numpy as np
 from pyvbmc import VariationalPosterior
@@ -203,6 +202,8 @@ def pareto_k(log_w: np.ndarray) -> float:
     finite = log_w[np.isfinite(log_w)]
     if finite.size < 10:
         return float("inf")
+    import arviz as az  # with xarray and pandas: loaded when first needed
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # ArviZ warns above 0.7: the caller decides
         _, khat = az.psislw(finite - finite.max())
