@@ -22,9 +22,10 @@ The steps, one round at a time:
    rule holds, only the runs it still waits for (past the runs' range, unresolved points),
    and go to 1.
 
-The returned :class:`~torchshm.inference.Posterior` has a mixture density fitted to a chain on
-the last emulator (``log_pdf``), draws and a log evidence by importance sampling from it
-(:mod:`.sampling`), and ``diagnostics["rounds"]``.
+The returned :class:`~torchshm.inference.Posterior`: a mixture density fitted to a chain on the
+last emulator, draws and log evidence by importance sampling from it (:mod:`.sampling`; a pilot
+of it must lie within the runs' range before the rule may stop: :mod:`.tail`), and
+``diagnostics["rounds"]``.
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ from torchshm.inference.adaptive import cost
 from torchshm.inference.adaptive import modes as mode_search
 from torchshm.inference.adaptive import sampling
 from torchshm.inference.adaptive.acquisition import choose_batch, design
-from torchshm.inference.adaptive.budget import default_cap, default_n_initial  # noqa: F401 (API)
+from torchshm.inference.adaptive.budget import default_cap, default_n_initial, positive  # noqa: F401
 from torchshm.inference.adaptive.explore import (beyond_posterior, explore, explore_calibration,
                                                   exploration_batch, with_modes)
 from torchshm.inference.adaptive.field import FieldEmulator, model_transform
@@ -50,6 +51,7 @@ from torchshm.inference.adaptive.final import (EXTRAPOLATION_SHARE, beyond_rows,
                                                 extrapolation_run, finish)
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint, physical_columns
 from torchshm.inference.adaptive.runs import RunSet, run_batch
+from torchshm.inference.adaptive.tail import TAIL_MOVE, unseen_tail
 from torchshm.inference.adaptive.unsure import (EVIDENCE_DRAWS, EVIDENCE_FIELDS, EVIDENCE_UPPER,
                                                  evidence_spread)
 from torchshm.inference.adaptive.validation import check_batch
@@ -112,11 +114,9 @@ def run_emulator(
         The :class:`Posterior` (``method="emulator"``); ``converged`` is the stop rule's verdict
         (False when the cap ran out first, with a warning).
 
-    The method's own work is many small batched tensor operations: it runs on one torch thread
-    (restored afterwards), which on a busy machine is several times faster than threads that
-    wait for each other (the main job: 11–17 s of CPU on one thread; 227 s with two at load 3).
-    NumPy's and SciPy's BLAS are held to one thread too (emcee, the mode search, the GP fits'
-    optimiser); model runs get the process's own number back (:mod:`torchshm.inference.blas`).
+    The method's own work (small batched tensor operations) runs on one torch thread and one
+    BLAS thread, restored afterwards and for model runs (:mod:`torchshm.inference.blas`): on a
+    busy machine that is several times faster (the main job: 11–17 s CPU; 227 s on two threads).
     """
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # small batched operations: one thread, no spinning on a busy machine
@@ -140,11 +140,11 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     plausible = np.asarray(problem.plausible_bounds, dtype=np.float64)
     names, dim = list(problem.names), len(problem.names)
     n_phys = len(problem.physical_names)
-    batch_size = _positive("batch_size", batch_size)
-    n_initial = _positive("n_initial", n_initial or default_n_initial(n_phys, batch_size))
+    batch_size = positive("batch_size", batch_size)
+    n_initial = positive("n_initial", n_initial or default_n_initial(n_phys, batch_size))
     if max_model_evaluations is None:
         max_model_evaluations = default_cap(dim, n_initial, batch_size)
-    budget = _positive("max_model_evaluations", max_model_evaluations, minimum=0)
+    budget = positive("max_model_evaluations", max_model_evaluations, minimum=0)
     n_walkers = int(n_walkers or max(96, 12 * dim))
     transform = model_transform(problem.model)
     rng = np.random.default_rng([seed, 29])
@@ -167,7 +167,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     columns = ([names.index(n) for n in problem.physical_names if n in names],
                [i for i, n in enumerate(problem.physical_names) if n in names])
     n_modes = 1
-    x_index, loads = torch.arange(problem.y.shape[1], dtype=torch.float64), _loads(problem)
+    x_index, loads = torch.arange(problem.y.shape[1], dtype=torch.float64), torch.as_tensor(np.asarray(problem.measurements.loads, dtype=np.float64))
     if budget > 0:  # the own compute to expect, before the first model run
         cost.announce(problem, cost.estimate(problem, n_walkers, n_steps, final_steps, n_evidence,
                                              np.random.default_rng([seed, 31]), error_draws))
@@ -231,6 +231,14 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             extend = (beyond if beyond.mean() >= EXTRAPOLATION_SHARE
                       else edge if extrapolating and checked else None)
             converged = settled and scan.n_unresolved == 0 and not extrapolating
+            tail, out_of = np.nan, draws  # the returned posterior lies within the runs too
+            if converged:
+                pilot, past, tail = unseen_tail(log_joint, samples, columns[0],
+                                                runs.theta_p[:, columns[1]], hard, plausible, seed + r)
+                if tail > TAIL_MOVE:
+                    converged, out_of, extend = False, pilot, past
+                    logger.info("round %d: the rule held, but a pilot of the final draws moves by "
+                                "%.2g sd beyond the runs: a run there", r, tail)
             row = {"round": float(r), "n_runs": float(len(batch)), "n_new_runs": float(new),
                    "n_model_evaluations": float(runs.n_new), "n_emulator_runs":
                    float(runs.theta_p.shape[0]), "tv": tv, "tv_witness": witness, "mmtv": mmtv,
@@ -241,7 +249,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                    "settled": float(settled), "extrapolating": float(extrapolating),
                    "n_unresolved": float(scan.n_unresolved), "explore_margin": scan.margin,
                    "explore_calibration": far_calibration, "beyond_runs": float(beyond.mean()),
-                   "edge_runs": float(edge.mean()),
+                   "edge_runs": float(edge.mean()), "final_tail_move": tail,
                    "wall_time_s": time.perf_counter() - t_round,
                    "cpu_time_s": time.process_time() - c_round}
             row.update(marginal_scalars(names, samples))
@@ -259,7 +267,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                 break
             want = min(batch_size, left)
             # one run past the runs' range, where the emulator extends what it saw
-            ext = (extrapolation_run(draws, extend, columns[0], runs.theta_p[:, columns[1]], hard)
+            ext = (extrapolation_run(out_of, extend, columns[0], runs.theta_p[:, columns[1]], hard)
                    if extend is not None else draws[:0])[:want]  # never past the cap
             want -= ext.shape[0]
             # exploration: one run; once settled, the batch holds only the runs the rule waits
@@ -286,15 +294,3 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
         "n_reused_runs": n_reused, "budget": budget, "t0": t0, "hard": hard,
         "plausible": plausible, "hop": n_modes > 1, "error_draws": error_draws,
     })
-
-
-def _loads(problem: Problem) -> torch.Tensor:
-    """`L` measured load cases, as the emulator's outputs are laid out."""
-    return torch.as_tensor(np.asarray(problem.measurements.loads, dtype=np.float64))
-
-
-def _positive(name: str, value: Any, minimum: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        what = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
-        raise ValueError(f"method='emulator': {name} must be {what}, got {value!r}")
-    return int(value)
