@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 from scipy.special import logsumexp
+from plateau_target import plateau
 from scipy.stats import multivariate_normal, norm
 
 from torchshm.inference.adaptive.final import MIN_ESS, posterior_draws
@@ -46,15 +47,10 @@ def test_slabs_reach_a_plateau_the_chain_never_saw() -> None:
     hard = np.array([[-np.inf, np.inf], [-10.0, 10.0]])
     plausible = np.array([[-3.0, 3.0], [-9.0, 9.0]])
 
-    def target(rows: np.ndarray) -> np.ndarray:
-        y = rows[:, 1]
-        flat = np.where((y > 2.0) & (y < 8.0), np.log(0.03 / 6.0), -np.inf)
-        return norm(0.0, 1.0).logpdf(rows[:, 0]) + np.logaddexp(np.log(0.97) + norm(0.0, 0.3).logpdf(y), flat)
-
     rng = np.random.default_rng(7)
     chain = np.column_stack([rng.normal(0.0, 1.0, 4000), rng.normal(0.0, 0.3, 4000)])
     mix = fit_mixture(chain, transformer(hard, plausible), seed=0)
-    shares = [float(np.mean(importance(target, q, 16000, seed=1).draws[:, 1] > 2.0))
+    shares = [float(np.mean(importance(plateau, q, 16000, seed=1).draws[:, 1] > 2.0))
               for q in (mix.widened(), mix.widened().with_slabs(plausible))]
     assert shares[0] < 0.01  # without slabs the plateau is all but lost
     assert shares[1] == pytest.approx(0.03, abs=0.008)

@@ -5,20 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.stats import norm
+from plateau_target import plateau
 
 from torchshm.inference.adaptive.final import extrapolation_run
 from torchshm.inference.adaptive.tail import TAIL_MOVE, unseen_tail
 
 HARD = np.array([[-np.inf, np.inf], [-10.0, 10.0]])
 PLAUSIBLE = np.array([[-3.0, 3.0], [-9.0, 9.0]])
-
-
-def _plateau(rows: np.ndarray) -> np.ndarray:
-    """97 % in a bump of sd 0.3 at y = 0, 3 % flat over y in 2..8 (a saturating parameter)."""
-    y = rows[:, 1]
-    flat = np.where((y > 2.0) & (y < 8.0), np.log(0.03 / 6.0), -np.inf)
-    return norm(0.0, 1.0).logpdf(rows[:, 0]) + np.logaddexp(np.log(0.97) + norm(0.0, 0.3).logpdf(y), flat)
 
 
 def test_a_plateau_past_the_runs_holds_the_stop_and_sends_a_run_out() -> None:
@@ -28,10 +21,10 @@ def test_a_plateau_past_the_runs_holds_the_stop_and_sends_a_run_out() -> None:
     rng = np.random.default_rng(7)
     chain = np.column_stack([rng.normal(0.0, 1.0, 4000), rng.normal(0.0, 0.3, 4000)])  # the bump
     short = np.linspace(-1.0, 1.0, 9)[:, None]
-    draws, beyond, move = unseen_tail(_plateau, chain, [1], short, HARD, PLAUSIBLE, seed=0, n=4000)
+    draws, beyond, move = unseen_tail(plateau, chain, [1], short, HARD, PLAUSIBLE, seed=0, n=4000)
     assert move > TAIL_MOVE and move == pytest.approx(2.2, rel=0.3)
     assert np.mean(beyond) == pytest.approx(0.03, abs=0.012) and (draws[beyond, 1] > 1.9).all()
     run = extrapolation_run(draws, beyond, [1], short, HARD)
     assert run[0, 1] == pytest.approx(draws[beyond, 1].max())
     wide = np.linspace(-1.0, 9.0, 11)[:, None]
-    assert unseen_tail(_plateau, chain, [1], wide, HARD, PLAUSIBLE, seed=0, n=4000)[2] == 0.0
+    assert unseen_tail(plateau, chain, [1], wide, HARD, PLAUSIBLE, seed=0, n=4000)[2] == 0.0
