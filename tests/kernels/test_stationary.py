@@ -176,3 +176,16 @@ def test_public_names() -> None:
     import torchshm
 
     assert torchshm.KERNELS == KERNELS
+
+
+def test_squared_exponential_spectral_density_transforms_to_its_correlation() -> None:
+    """∫ S(ω) cos(ω d) dω / 2π = exp(-(d/l)²) (trapezoid over ±40/l, 1e-10)."""
+    kern = get_kernel("squared_exponential")
+    length = torch.tensor(0.7, dtype=torch.float64)
+    omega = torch.linspace(-40.0 / 0.7, 40.0 / 0.7, 200_001, dtype=torch.float64)
+    d = torch.tensor([0.0, 0.3, 0.7, 1.5], dtype=torch.float64)
+    density = kern.spectral_density(omega, length)
+    values = torch.trapezoid(density * torch.cos(omega * d[:, None]), omega) / (2 * torch.pi)
+    torch.testing.assert_close(values, kern.correlation(d, length), rtol=0, atol=1e-10)
+    assert kern.gaussian_spread == pytest.approx(2**-0.5)
+    assert get_kernel("matern32").gaussian_spread is None

@@ -61,6 +61,9 @@ class Kernel(ABC):
     is_diagonal: ClassVar[bool] = False
     #: whether coordinates enter through their L1 distance instead of the Euclidean one
     l1: ClassVar[bool] = False
+    #: for a correlation ``exp(-d² / (2 s²))``, ``s / length``; such a kernel also has
+    #: ``spectral_density(omega, length)`` (:mod:`torchshm.likelihood.hilbert`); None otherwise
+    gaussian_spread: ClassVar[float | None] = None
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Register a subclass that names itself (``name`` set in its own class body)."""

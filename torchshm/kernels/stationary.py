@@ -108,3 +108,12 @@ class SquaredExponential(Kernel):
 
     def correlation(self, d: Tensor, length: Tensor | None) -> Tensor:
         return (-scaled_distance(d, length).square()).exp()
+
+    #: ``exp(-(d/l)²) = exp(-d² / (2 s²))`` with spread ``s = l / sqrt(2)``: the reduced-rank
+    #: form along a line (:mod:`torchshm.likelihood.hilbert`) sizes its basis in spreads
+    gaussian_spread = 1.0 / math.sqrt(2.0)
+
+    def spectral_density(self, omega: Tensor, length: Tensor) -> Tensor:
+        """1-D spectral density of the correlation, ``sqrt(pi) l exp(-(omega l)² / 4)`` [m],
+        at angular frequencies ``omega`` [rad/m] (``∫ S dω / 2π = 1``); broadcasts."""
+        return math.sqrt(math.pi) * length * (-(omega * length).square() / 4.0).exp()

@@ -15,13 +15,17 @@ import os
 from torch import Tensor
 
 from torchshm.kernels import Kernel
-from torchshm.likelihood import fullscale, fullscale_choice, statespace
+from torchshm.likelihood import fullscale, fullscale_choice, hilbert, statespace
 from torchshm.likelihood.lattice_order import lattice
 
 logger = logging.getLogger(__name__)
 
 #: points per load case from which ``method="auto"`` uses the state-space form (measured)
 STATE_SPACE_FROM = 1000
+#: points per load case along a line from which ``method="auto"`` uses the reduced-rank form of
+#: a kernel with a Gaussian spectral density (:mod:`torchshm.likelihood.hilbert`); rows whose
+#: basis would exceed ``hilbert.SHARE`` of the points stay dense
+HILBERT_FROM = 100
 #: points per load case of a field (`n x d`, d >= 2) from which ``method="auto"`` uses the
 #: full-scale (low rank + Vecchia) form: below it the exact dense path costs at most a few
 #: seconds per evaluation
@@ -36,15 +40,16 @@ DENSE_MEMORY_SHARE = 0.5
 #: messages given once per process
 _SAID = {"vecchia": False, "fullscale": False}
 #: every method name a caller may ask for
-METHODS = ("auto", "dense", "state_space", "diagonal", "vecchia", "fullscale", "lattice")
+METHODS = ("auto", "dense", "state_space", "diagonal", "vecchia", "fullscale", "lattice", "hilbert")
 
 
 def choose_method(
     kern: Kernel, n: int, method: str = "auto", noise_positive: bool = True, dim: int = 1,
     x: Tensor | None = None,
 ) -> str:
-    """``"diagonal"``, ``"dense"``, ``"state_space"``, ``"fullscale"``, ``"vecchia"``,
-    ``"lattice"`` or a kernel's own form (``"upscaled"``) for `n` points per load case.
+    """``"diagonal"``, ``"dense"``, ``"state_space"``, ``"hilbert"``, ``"fullscale"``,
+    ``"vecchia"``, ``"lattice"`` or a kernel's own form (``"upscaled"``) for `n` points per load
+    case.
 
     ``"auto"`` takes the state space only when the diagonal of Eq. (21) is known to be
     positive (``noise_positive``, i.e. ``sigma_e > 0``), which the state-space form needs at
@@ -54,12 +59,15 @@ def choose_method(
     neighbours, fast and far less accurate) only when asked for. Kernel
     ``separable_exponential`` (L1 distance) takes ``"lattice"`` (exact, sparse) on `n x 2`
     points ``x`` of one regular grid with ``noise_positive``, the dense form elsewhere, and
-    never the Vecchia or full-scale forms (Euclidean distances).
+    never the Vecchia or full-scale forms (Euclidean distances). A kernel with a Gaussian
+    spectral density (``squared_exponential``) along a line takes, from :data:`HILBERT_FROM`
+    points with ``noise_positive``, the reduced-rank form (:mod:`~torchshm.likelihood.hilbert`:
+    within 1e-5 nat of the dense form; rows with short lengths stay dense).
 
     Raises:
         ValueError: for an unknown method, ``"state_space"`` with a kernel that has none,
             ``"vecchia"`` or ``"fullscale"`` for 1-D positions or an L1 kernel, ``"lattice"``
-            where it does not apply, or a dense covariance larger than
+            or ``"hilbert"`` where it does not apply, or a dense covariance larger than
             :data:`DENSE_MEMORY_SHARE` of the physical memory.
     """
     own = getattr(kern, "form", None)  # a kernel with a sparse density of its own
@@ -75,8 +83,8 @@ def choose_method(
         raise ValueError(f"method='lattice' is the sparse form of kernel 'separable_exponential' on a "
                          f"regular grid; kernel {kern.name!r} has none")
     if method not in METHODS:
-        raise ValueError(f"method must be 'auto', 'dense', 'state_space', 'fullscale', 'vecchia' or "
-                         f"'lattice', got {method!r}")
+        raise ValueError(f"method must be 'auto', 'dense', 'state_space', 'hilbert', 'fullscale', 'vecchia' "
+                         f"or 'lattice', got {method!r}")
     if kern.is_diagonal:
         return "diagonal"
     if method == "diagonal":
@@ -109,6 +117,12 @@ def choose_method(
             f"{n} points per load case: a dense covariance needs {need / 2**30:.1f} GiB of "
             f"{have / 2**30:.1f} GiB for kernel {kern.name!r}; {instead}"
         )
+    spectral = dim == 1 and hilbert.applies(kern)
+    if method == "hilbert" and not (spectral and noise_positive):
+        raise ValueError(f"method='hilbert' is for a kernel with a Gaussian spectral density along a line with "
+                         f"sigma_e > 0; kernel {kern.name!r}, {dim}-D points: use 'dense'")
+    if method == "hilbert" or (method == "auto" and spectral and noise_positive and n >= HILBERT_FROM):
+        return "hilbert"  # rows it does not fit are dense (the memory check above holds for them)
     return "dense"
 
 

@@ -73,7 +73,8 @@ def log_likelihood(
             a number, or a tensor broadcastable to `...` when it is inferred.
         sigma_e: standard deviation of the measurement noise [µε], >= 0; a number or a
             tensor broadcastable to `...`.
-        method: ``"auto"`` (default), ``"dense"``, ``"state_space"`` (1-D positions),
+        method: ``"auto"`` (default), ``"dense"``, ``"state_space"`` or ``"hilbert"`` (1-D
+            positions; the latter for ``squared_exponential``, reduced rank),
             ``"fullscale"`` or ``"vecchia"`` (`n x d` coordinates), ``"lattice"`` (kernel
             ``separable_exponential`` on a regular grid, exact and sparse, on the CPU).
         extra_variance: `... x L x n` variance [µε²] added to the diagonal of each load case's
@@ -122,8 +123,9 @@ def log_likelihood(
     form = choose_method(kern, y.shape[1], method, noise_positive=positive, dim=dim, x=x)
     shared = extra is None and not isinstance(sm_f, Tensor) and sm_f == 0.0
     matrices = 1 if shared else y.shape[0]  # covariances per parameter vector
-    per_vector = matrices * y.shape[1] ** 2 * 8 if form == "dense" else y.numel() * 8
-    step = max(1, (CHUNK_BYTES if form == "dense" else STATE_SPACE_CHUNK_BYTES) // per_vector)
+    dense = form in ("dense", "hilbert")  # the reduced-rank form's rows may fall back to dense
+    per_vector = matrices * y.shape[1] ** 2 * 8 if dense else y.numel() * 8
+    step = max(1, (CHUNK_BYTES if dense else STATE_SPACE_CHUNK_BYTES) // per_vector)
     parts = []
     for i in range(0, n_batch, step):
         c = slice(i, i + step)

@@ -9,6 +9,8 @@ For load case ``l`` of a parameter vector with model response ``eta_l`` (`n`)::
 the posterior predictive draws (Eq. 15), from the same covariance, in one of these forms
 (``docs/likelihood.md``): ``"dense"`` (:func:`covariance`, batched Cholesky, any kernel),
 ``"state_space"`` (Markov kernels, exact, O(n), :mod:`~torchshm.likelihood.statespace`),
+``"hilbert"`` (a Gaussian spectral density along a line, reduced rank, within 1e-5 nat,
+:mod:`~torchshm.likelihood.hilbert`; draws are dense),
 ``"vecchia"`` and ``"fullscale"`` (fields of `n x d` coordinates, approximate), all
 differentiable on CPU or CUDA; ``"upscaled"`` (kernel ``upscaled``, exact, sparse, NumPy/SciPy,
 :mod:`~torchshm.likelihood.upscaled`) and ``"lattice"`` (kernel ``separable_exponential`` on a
@@ -28,11 +30,12 @@ import torch
 from torch import Tensor
 
 from torchshm.kernels import Kernel
-from torchshm.likelihood import fullscale, lattice, statespace, upscaled, vecchia
+from torchshm.likelihood import fullscale, hilbert, lattice, statespace, upscaled, vecchia
 from torchshm.likelihood.choice import (  # the choice of form, and its thresholds, re-exported
     DENSE_MEMORY_SHARE,
     FULLSCALE_NEIGHBOURS,
     FULLSCALE_RANK,
+    HILBERT_FROM,
     STATE_SPACE_FROM,
     VECCHIA_FROM,
     choose_method,
@@ -129,10 +132,29 @@ class Eq21:
             return vecchia.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length)
         if self.method == "fullscale":
             return fullscale.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length)
+        if self.method == "hilbert":
+            return self._hilbert(resid, noise)
+        return self._dense(resid, noise, self.sigma_a, self.length)
+
+    def _dense(self, resid: Tensor, noise: Tensor, sigma_a: Tensor, length: Tensor) -> Tensor:
+        """Dense log densities `B` of ``resid`` with diagonal ``noise`` (both `B x L x n`)."""
         if self._shared_noise:
             noise = noise[:, :1]  # identical for every load case: one factorisation
-        cov = covariance(self.x, self.kern, self.sigma_a, self.length, noise)
+        cov = covariance(self.x, self.kern, sigma_a, length, noise)
         return dense_log_density(cov, resid)  # its gradient in closed form
+
+    def _hilbert(self, resid: Tensor, noise: Tensor) -> Tensor:
+        """The reduced-rank form for the rows it fits, the dense form for the others."""
+        rows = hilbert.fits(self.x, self.kern, self.length)
+        if bool(rows.all()):
+            return hilbert.log_density(resid, noise, self.x, self.kern, self.sigma_a, self.length, self._shared_noise)
+        out = resid.new_empty(resid.shape[0])
+        if bool(rows.any()):
+            out[rows] = hilbert.log_density(resid[rows], noise[rows], self.x, self.kern, self.sigma_a[rows],
+                                            self.length[rows], self._shared_noise)
+        rest = ~rows
+        out[rest] = self._dense(resid[rest], noise[rest], self.sigma_a[rest], self.length[rest])
+        return out
 
     def sample(self, generator: torch.Generator) -> Tensor:
         """One draw `B x L x n` per response: ``eta + sigma_m eta z1 + f + e``.

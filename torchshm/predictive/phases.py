@@ -41,7 +41,8 @@ def line_method(kern: Kernel, x: Tensor, sigma_e: float, noise_positive: bool) -
     form = "state_space" if markov and x.shape[0] >= STATE_SPACE_FROM else "auto"
     # the lattice draws (AR(1) recursions on the grid) need no noise, as in predictive_draws
     form = form if form != "auto" or noise_positive or getattr(kern, "form", None) == "lattice" else "dense"
-    return choose_method(kern, x.shape[0], form, dim=1 if x.ndim == 1 else int(x.shape[-1]), x=x)
+    chosen = choose_method(kern, x.shape[0], form, dim=1 if x.ndim == 1 else int(x.shape[-1]), x=x)
+    return "dense" if chosen == "hilbert" else chosen  # the reduced-rank form is the likelihood's
 
 
 def draw_lines(out: Tensor, view: PredictionView, kernel: str | Kernel, sigma_a: Tensor,
