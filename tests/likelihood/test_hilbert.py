@@ -87,3 +87,14 @@ def test_choice() -> None:
         choose_method(get_kernel("matern32"), 500, "hilbert")
     with pytest.raises(ValueError, match="Gaussian spectral density"):
         choose_method(KERNEL, 500, "hilbert", dim=2)
+
+
+def test_predictive_draws_stay_dense() -> None:
+    """The draws of a size where the likelihood takes the reduced rank are the dense draws."""
+    from torchshm.predictive import predictive_draws
+
+    x, eta, _, lengths = _case(150, [1.0, 2.0], 1.0, 0.1, seed=4)
+    draws = [predictive_draws(eta, x, KERNEL, torch.ones(2, dtype=torch.float64), lengths, 0.05, 0.1,
+                              torch.Generator().manual_seed(5), method=method) for method in ("auto", "dense")]
+    assert choose_method(KERNEL, 150) == "hilbert"
+    assert torch.equal(draws[0], draws[1])
