@@ -98,3 +98,18 @@ def test_predictive_draws_stay_dense() -> None:
                               torch.Generator().manual_seed(5), method=method) for method in ("auto", "dense")]
     assert choose_method(KERNEL, 150) == "hilbert"
     assert torch.equal(draws[0], draws[1])
+
+
+def test_mixed_batch_keeps_the_vectors_order_and_gradients() -> None:
+    """Vectors left dense and vectors of the reduced rank, interleaved, in chunks."""
+    x, eta, y, _ = _case(200, [1.0] * 6, 1.0, 0.1, seed=6)
+    lengths = torch.tensor([2.0, 0.05, 1.3, 0.1, 6.0, 0.07], dtype=torch.float64)
+    grads = []
+    for method in ("dense", "auto"):
+        e, ell = eta.clone().requires_grad_(), lengths.clone().requires_grad_()
+        value = log_likelihood(y, e, x, KERNEL, 1.0, ell, 0.05, 0.1, method=method)
+        grads.append([value.detach(), *torch.autograd.grad(value.sum(), [e, ell])])
+    for dense, auto in zip(*grads):
+        torch.testing.assert_close(auto, dense, rtol=1e-7, atol=TOLERANCE)
+    empty = log_likelihood(y, eta[:0], x, KERNEL, 1.0, lengths[:0], 0.05, 0.1)
+    assert empty.shape == (0,)

@@ -18,6 +18,7 @@ from torch import Tensor
 
 from torchshm.kernels import Kernel, get_kernel
 from torchshm.kernels.base import as_float64
+from torchshm.likelihood import hilbert
 from torchshm.likelihood.marginal import Eq21, choose_method
 
 #: largest covariance buffer [bytes] factorised at once (at least one parameter vector per
@@ -123,16 +124,34 @@ def log_likelihood(
     form = choose_method(kern, y.shape[1], method, noise_positive=positive, dim=dim, x=x)
     shared = extra is None and not isinstance(sm_f, Tensor) and sm_f == 0.0
     matrices = 1 if shared else y.shape[0]  # covariances per parameter vector
-    dense = form in ("dense", "hilbert")  # the reduced-rank form's rows may fall back to dense
-    per_vector = matrices * y.shape[1] ** 2 * 8 if dense else y.numel() * 8
-    step = max(1, (CHUNK_BYTES if dense else STATE_SPACE_CHUNK_BYTES) // per_vector)
-    parts = []
-    for i in range(0, n_batch, step):
-        c = slice(i, i + step)
-        gaussian = Eq21(eta_f[c], x, kern, sa_f[c], ell_f[c], _part(sm_f, c), _part(se_f, c), form,
-                        None if extra_f is None else extra_f[c])
-        parts.append(gaussian.log_prob(y))
-    out = parts[0] if len(parts) == 1 else torch.cat(parts) if parts else eta_f.new_zeros(0)
+    if form == "hilbert":  # the vectors it fits in chunks of their basis, the others dense
+        fit = hilbert.fits(x, kern, ell_f)
+        groups = [(torch.nonzero(fit)[:, 0], "hilbert"), (torch.nonzero(~fit)[:, 0], "dense")]
+    else:
+        groups = [(None, form)]
+    parts, order = [], []
+    for rows, part_form in groups:
+        if rows is not None and not rows.numel():
+            continue
+        if part_form == "hilbert":  # B x L' x n x m factors, and as much again for the gradient
+            basis = int(hilbert.sizes(x, kern, ell_f[rows]).max())
+            step = max(1, STATE_SPACE_CHUNK_BYTES // (2 * matrices * y.shape[1] * basis * 8))
+        elif part_form == "dense":
+            step = max(1, CHUNK_BYTES // (matrices * y.shape[1] ** 2 * 8))
+        else:
+            step = max(1, STATE_SPACE_CHUNK_BYTES // (y.numel() * 8))
+        every = torch.arange(n_batch, device=eta_f.device) if rows is None else rows
+        for i in range(0, every.numel(), step):
+            c = every[i:i + step] if rows is not None else slice(i, i + step)
+            gaussian = Eq21(eta_f[c], x, kern, sa_f[c], ell_f[c], _part(sm_f, c), _part(se_f, c), part_form,
+                            None if extra_f is None else extra_f[c])
+            parts.append(gaussian.log_prob(y))
+            order.append(every[i:i + step])
+    if len(groups) == 1 or not parts:
+        out = parts[0] if len(parts) == 1 else torch.cat(parts) if parts else eta_f.new_zeros(0)
+    else:  # back in the vectors' order
+        out = eta_f.new_empty(n_batch)
+        out[torch.cat(order)] = torch.cat(parts)
     finite = torch.isfinite(eta_f).all(-1).all(-1) & torch.isfinite(sa_f) & torch.isfinite(ell_f)
     bad = ~finite | (sa_f < 0) | (ell_f < 0)
     for v in (sm_f, se_f):
