@@ -62,7 +62,7 @@ def choose_method(
     never the Vecchia or full-scale forms (Euclidean distances). A kernel with a Gaussian
     spectral density (``squared_exponential``) along a line takes, from :data:`HILBERT_FROM`
     points with ``noise_positive``, the reduced-rank form (:mod:`~torchshm.likelihood.hilbert`:
-    within 1e-5 nat of the dense form; rows with short lengths stay dense).
+    within 2e-5 nat of the dense form at up to 1,000 points; rows with short lengths stay dense).
 
     Raises:
         ValueError: for an unknown method, ``"state_space"`` with a kernel that has none,

@@ -20,11 +20,11 @@ of the kernel's Gaussian spread ``s`` (``s = length / sqrt(2)`` for ``exp(-(d/le
 the margin ``L* - (half the positions' range) = MARGIN s`` (the Dirichlet boundary's image
 term, ``exp(-2 MARGIN²)`` of the variance) and the highest frequency ``omega_m s >= KAPPA``
 (the spectrum's tail, ``erfc(KAPPA / sqrt(2))``). With ``KAPPA = 8`` and ``MARGIN = 4`` the log
-density agrees with the dense Cholesky's to 1e-5 nat or closer at 458 points for lengths of
-0.025 to 0.8 of the line and noise down to 1/3000 of ``sigma_a`` (``tests/likelihood/test_hilbert.py``,
-``docs/likelihood.md``). Rows whose basis would be larger than :data:`SHARE` of the points
-(short lengths) are left to the dense form by the caller (:func:`fits`). Plain torch:
-differentiable by autograd (to any order), on CPU or CUDA.
+density agrees with the dense Cholesky's to 1e-5 nat at 458 points and 2e-5 at 1,000, for
+lengths of 0.025 to 2 times the line and noise down to 1/3000 of ``sigma_a``
+(``tests/likelihood/test_hilbert.py``, ``docs/likelihood.md``). Rows whose basis would be
+larger than :data:`SHARE` of the points (short lengths) are left to the dense form by the caller
+(:func:`fits`). Plain torch: differentiable by autograd (to any order), on CPU or CUDA.
 """
 
 from __future__ import annotations

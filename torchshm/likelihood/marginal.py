@@ -9,7 +9,7 @@ For load case ``l`` of a parameter vector with model response ``eta_l`` (`n`)::
 the posterior predictive draws (Eq. 15), from the same covariance, in one of these forms
 (``docs/likelihood.md``): ``"dense"`` (:func:`covariance`, batched Cholesky, any kernel),
 ``"state_space"`` (Markov kernels, exact, O(n), :mod:`~torchshm.likelihood.statespace`),
-``"hilbert"`` (a Gaussian spectral density along a line, reduced rank, within 1e-5 nat,
+``"hilbert"`` (a Gaussian spectral density along a line, reduced rank, within 2e-5 nat,
 :mod:`~torchshm.likelihood.hilbert`; draws are dense),
 ``"vecchia"`` and ``"fullscale"`` (fields of `n x d` coordinates, approximate), all
 differentiable on CPU or CUDA; ``"upscaled"`` (kernel ``upscaled``, exact, sparse, NumPy/SciPy,
