@@ -113,3 +113,12 @@ def test_mixed_batch_keeps_the_vectors_order_and_gradients() -> None:
         torch.testing.assert_close(auto, dense, rtol=1e-7, atol=TOLERANCE)
     empty = log_likelihood(y, eta[:0], x, KERNEL, 1.0, lengths[:0], 0.05, 0.1)
     assert empty.shape == (0,)
+
+
+def test_lengths_that_are_not_finite_or_negative_give_nan_as_the_dense_form_does() -> None:
+    x, eta, y, _ = _case(200, [1.0] * 4, 1.0, 0.1, seed=7)
+    lengths = torch.tensor([1.5, float("nan"), -1.0, float("inf")], dtype=torch.float64)
+    auto = log_likelihood(y, eta, x, KERNEL, 1.0, lengths, 0.05, 0.1)
+    dense = log_likelihood(y, eta, x, KERNEL, 1.0, lengths, 0.05, 0.1, method="dense")
+    assert bool(torch.isfinite(auto[0])) and bool(torch.isnan(auto[1:]).all())
+    torch.testing.assert_close(auto, dense, rtol=0.0, atol=TOLERANCE, equal_nan=True)

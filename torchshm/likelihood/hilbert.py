@@ -57,7 +57,9 @@ def sizes(x: Tensor, kern: Kernel, length: Tensor) -> Tensor:
     """The basis size `B` (int64) each row's own length calls for at positions ``x`` (`n`)."""
     spread = kern.gaussian_spread * length.clamp_min(MIN_LENGTH)
     half = 0.5 * float(x.max() - x.min())
-    return torch.ceil(2.0 * KAPPA * (half + MARGIN * spread) / (math.pi * spread)).to(torch.int64)
+    size = 2.0 * KAPPA * (half + MARGIN * spread) / (math.pi * spread)
+    size = torch.where(torch.isfinite(size), size, 2.0**62)  # a NaN or infinite length: never fits
+    return torch.ceil(size.clamp_max(2.0**62)).to(torch.int64)
 
 
 def fits(x: Tensor, kern: Kernel, length: Tensor) -> Tensor:
