@@ -1,5 +1,5 @@
 """The final step's importance proposal (:mod:`torchshm.inference.adaptive.mixture`) and the
-draws made from it (:func:`torchshm.inference.adaptive.final.posterior_draws`)."""
+draws made from it (:func:`torchshm.inference.adaptive.draws.posterior_draws`)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from scipy.special import logsumexp
 from plateau_target import plateau
 from scipy.stats import multivariate_normal, norm
 
-from torchshm.inference.adaptive.final import MIN_ESS, posterior_draws
+from torchshm.inference.adaptive.draws import MIN_ESS, posterior_draws
 from torchshm.inference.adaptive.mixture import fit_mixture
 from torchshm.inference.adaptive.sampling import importance, transformer
 
@@ -90,9 +90,9 @@ def test_a_proposal_that_misses_the_posterior_returns_the_chain_and_warns() -> N
 
     with pytest.warns(RuntimeWarning, match="effective draws"):
         out = posterior_draws(narrow, chain, hard, plausible, 2000, seed=0)
-    result, vp, source = out
+    result, vp, source, info = out
     ess, draws = result.ess, result.draws
-    assert ess < MIN_ESS and source == "chain"
+    assert ess < MIN_ESS and source == "chain" and info["importance_passes"] == 0
     assert draws.shape == (2000, 1) and np.all(np.isin(draws, chain))
     assert np.isfinite(vp.pdf(draws[:5], log_flag=True)).all()
 
@@ -104,10 +104,11 @@ def test_posterior_draws_match_the_target_moments() -> None:
     hard = np.array([[-np.inf, np.inf], [-np.inf, np.inf]])
     plausible = np.array([[-3.0, 5.0], [-2.0, 6.0]])
     chain = np.random.default_rng(4).multivariate_normal(mean, cov, 3000)
-    (log_z, sd, ess, draws, khat), vp, source = posterior_draws(
+    (log_z, sd, ess, draws, khat), vp, source, info = posterior_draws(
         lambda r: target.logpdf(r) + 3.0, chain, hard, plausible, 8000, seed=1)
     assert khat < 0.5
     assert source == "importance" and ess > 0.5 * 8000
+    assert info["importance_passes"] == 0 and info["draws_moment_error"] < 0.03  # one pass will do
     assert log_z == pytest.approx(3.0, abs=max(5 * sd, 0.01))
     assert np.allclose(draws.mean(0), mean, atol=0.05)
     assert np.allclose(np.cov(draws.T), cov, atol=0.06)

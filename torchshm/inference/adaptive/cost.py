@@ -24,6 +24,7 @@ import numpy as np
 import torch
 
 from torchshm.inference.adaptive import unsure
+from torchshm.inference.adaptive.draws import MAX_PASSES
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint
 
 if TYPE_CHECKING:
@@ -54,6 +55,8 @@ class OwnCost:
         capped_most: the same average made again on up to :data:`~.unsure.MAX_POINTS` points,
             where the first keeps fewer than :data:`~.unsure.MIN_ESS` effective draws (known only
             after it; many parameters).
+        final_most: ``final`` with the importance passes drawn where a moment's tail needs
+            them (:data:`~.draws.MAX_PASSES` more of ``n_evidence``; known only at the end).
     """
 
     per_vector: float
@@ -61,6 +64,7 @@ class OwnCost:
     final: float
     capped: float = 0.0
     capped_most: float = 0.0
+    final_most: float = 0.0
 
 
 def estimate(problem: Problem, n_walkers: int, n_steps: int, final_steps: int, n_evidence: int,
@@ -95,8 +99,10 @@ def estimate(problem: Problem, n_walkers: int, n_steps: int, final_steps: int, n
     per_pass = unsure.N_POINTS * per  # one pass of Eq. (21) over the average's points
     capped = (1 + unsure.fields_for(per_pass, error_draws)) * per_pass
     most = unsure.MAX_POINTS * per
-    return OwnCost(per, per_round, (n_evidence + n_walkers * final_steps) * per, capped,
-                   capped + (1 + unsure.fields_for(most, error_draws)) * most)
+    final = (n_evidence + n_walkers * final_steps) * per
+    return OwnCost(per, per_round, final, capped,
+                   capped + (1 + unsure.fields_for(most, error_draws)) * most,
+                   final + MAX_PASSES * n_evidence * per)
 
 
 def duration(seconds: float) -> str:
@@ -112,7 +118,9 @@ def announce(problem: Problem, cost: OwnCost) -> None:
     text = (f"method='emulator': the emulated likelihood costs about {cost.per_vector:.2g} s of "
             f"CPU per parameter vector here ({n} readings, kernel {problem.kernel.name!r}), "
             f"so about {duration(cost.per_round)} of own compute per round (twice that in "
-            f"round 0) and {duration(cost.final)} at the end ({duration(cost.capped)} more if the "
+            f"round 0) and {duration(cost.final)} at the end (up to {duration(cost.final_most)} "
+            "where a tail of the posterior needs more importance draws; "
+            f"{duration(cost.capped)} more if the "
             f"cap ends the run before the stop rule holds, up to {duration(cost.capped_most)} where "
             f"that average has to be made again on more points)")
     if cost.per_round <= WARN_ROUND_S:

@@ -12,7 +12,7 @@ import numpy as np
 
 from torchshm.inference.adaptive import sampling
 from torchshm.inference.adaptive.explore import N_SOBOL
-from torchshm.inference.adaptive.mixture import Mixture, fit_mixture
+from torchshm.inference.adaptive.draws import DEFENSIVE, SLABS, posterior_draws  # noqa: F401
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint
 from torchshm.inference.adaptive.runs import RunSet
 from torchshm.inference.adaptive.unsure import average_over_errors
@@ -20,8 +20,6 @@ from torchshm.inference.posterior import Posterior
 from torchshm.inference.tensorboard import RunTrace
 
 if TYPE_CHECKING:
-    from pyvbmc import VariationalPosterior
-
     from torchshm.problem import Problem
 
 logger = logging.getLogger("torchshm.inference.adaptive.method")
@@ -30,20 +28,6 @@ BEYOND_MARGIN = 0.05
 #: the stop rule runs the model past the runs while this share of the posterior draws lies at
 #: their edge or beyond it (:func:`edge_rows`); the check warns at this share beyond them
 EXTRAPOLATION_SHARE = 0.05
-#: importance sampling is tried again (the mixture widened more, or fitted to the first
-#: draws: :func:`posterior_draws`) when its effective sample size is below this share of them
-REFIT_SHARE = 0.25
-#: fewest effective importance samples from which the draws are resampled; below it the
-#: returned draws are the chain's (thinned) and the evidence is flagged
-MIN_ESS = 200.0
-#: fewest effective importance samples whose resampled draws a mixture is fitted to again
-MIN_REFIT_ESS = 50.0
-#: widening of the defensive part of the second proposal (the first: 2)
-WIDE = 3.0
-#: a second try is judged on a pilot of ``n // PILOT_SHARE`` draws (at least ``PILOT_MIN``)
-PILOT_SHARE, PILOT_MIN = 8, 500
-#: share of the proposal in the mixture widened, and in its slabs (:meth:`.Mixture.with_slabs`)
-DEFENSIVE, SLABS = 0.25, 0.2
 
 
 def cap_reason(rounds: list[dict[str, Any]]) -> str:
@@ -82,8 +66,8 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
         more, _ = sampling.run_chain(log_joint, walkers, extra["n_final_steps"], seed + 7,
                                      hop=extra["hop"])
         chain = np.concatenate([last, more])
-    result, vp, source = posterior_draws(log_joint, chain, extra["hard"], extra["plausible"],
-                                         extra["n_evidence"], seed)
+    result, vp, source, passes = posterior_draws(log_joint, chain, extra["hard"],
+                                                 extra["plausible"], extra["n_evidence"], seed)
     log_z, log_z_sd, samples = result.log_z, result.sd, result.draws
     spread = rounds[-1].get("evidence_sd", np.nan) if rounds else np.nan
     if np.isfinite(spread):  # the stop rule's evidence sd from the emulator's errors, in the sd
@@ -115,6 +99,7 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
         "rounds": rounds, "n_rounds": len(rounds), "n_failed_evaluations": runs.n_failed,
         "n_reused_runs": extra["n_reused_runs"], "n_emulator_runs": int(runs.theta_p.shape[0]),
         "evidence_ess": result.ess, "evidence_khat": result.khat, "posterior_draws": source,
+        **passes,
         "averaged_over_errors": None if averaged is None else {
             "ess": averaged.ess, "log_evidence_spread": averaged.log_z_spread,
             "error_sd": averaged.error_sd, "n_points": averaged.n_points,
@@ -134,67 +119,6 @@ def finish(problem: Problem, log_joint: EmulatedLogJoint, walkers: np.ndarray, l
         diagnostics=diagnostics, priors=dict(getattr(problem, "priors", {}) or {}),
         history=trace.history(), variational=vp, n_chains=1, problem=problem,
     )
-
-
-def posterior_draws(log_joint: EmulatedLogJoint, chain: np.ndarray, hard: np.ndarray,
-                    plausible: np.ndarray, n: int, seed: int,
-                    ) -> tuple[sampling.Importance, VariationalPosterior, str]:
-    """Evidence, draws and stored density of the emulated posterior from its chain `S x D`.
-
-    Importance sampling from the full-covariance mixture of the chain (:mod:`.mixture`),
-    widened, and with slabs that carry each coordinate over the plausible box
-    (:meth:`.Mixture.with_slabs`); when its effective sample size is below
-    :data:`REFIT_SHARE` of ``n``,
-    again from the same mixture widened more (:data:`WIDE`: tails heavier than the mixture's,
-    e.g. mass piled against a bound, which the unbounded coordinates stretch into a long tail)
-    and from a mixture fitted to the first draws (which the weights moved to where the
-    posterior's mass is: a mode the chain under-filled), each judged on a pilot of
-    ``n //`` :data:`PILOT_SHARE` draws, the better one made in full if its pilot's effective
-    share beats the first's, keeping the larger effective sample (so at most about 1.25
-    passes more than the first instead of 2).
-    Below :data:`MIN_ESS` the draws are the chain's, thinned to ``n``, and a warning says so.
-
-    Returns:
-        ``(result, vp, source)``: the kept :class:`.sampling.Importance` (log evidence [nats],
-        its Monte Carlo sd, effective sample size, Pareto k-hat and `n x D` draws, the chain's
-        when ``source`` is ``"chain"``), the PyVBMC density fitted to the draws (in the
-        coordinates of one mode's shape: :meth:`.mixture.Mixture.pooled_covariance`) and
-        ``"importance"`` or ``"chain"``.
-    """
-    tr = sampling.transformer(hard, plausible)
-    mix = fit_mixture(chain, tr, seed)
-
-    def proposal(fitted: Mixture, factor: float) -> Mixture:
-        return fitted.defensive(plausible, factor, DEFENSIVE, SLABS)
-
-    best = sampling.importance(log_joint, proposal(mix, 2.0), n, seed)
-    if best.ess < REFIT_SHARE * n:  # tails heavier than the defensive part's, or a mode missed
-        tries = [(mix, WIDE)]
-        if best.ess >= MIN_REFIT_ESS:
-            tries.append((fit_mixture(best.draws, tr, seed + 1), 2.0))
-        # a pilot of each try, and a full pass for the best one only if it promises more
-        m = min(n, max(PILOT_MIN, n // PILOT_SHARE))
-        share = [sampling.importance(log_joint, proposal(*t), m, seed + 1 + i).ess / m
-                 for i, t in enumerate(tries)]
-        i = int(np.argmax(share))
-        if share[i] > best.ess / n:
-            other = sampling.importance(log_joint, proposal(*tries[i]), n, seed + 11 + i)
-            if other.ess > best.ess:
-                best, mix = other, tries[i][0]
-    source = "importance"
-    if best.ess < MIN_ESS:
-        source = "chain"
-        best = best._replace(draws=chain[np.linspace(0, chain.shape[0] - 1,
-                                                     min(n, chain.shape[0])).astype(int)])
-        warnings.warn(
-            f"method='emulator': importance sampling of the emulated posterior kept {best.ess:.0f} "
-            f"effective draws of {n} (fewer than {MIN_ESS:.0f}); the posterior draws are the "
-            "chain's (their shares of several modes are the chain's) and the log evidence is "
-            "unreliable: raise final_steps and n_evidence",
-            RuntimeWarning, stacklevel=4)
-    vp = sampling.fit_density(best.draws, hard, plausible, seed,
-                              covariance=mix.pooled_covariance())
-    return best, vp, source
 
 
 def beyond_runs(samples: np.ndarray, names: list[str], physical: list[str], theta_p: np.ndarray,

@@ -178,12 +178,18 @@ def importance(log_joint: LogDensity, proposal: Proposal, n: int, seed: int) -> 
     rng = np.random.default_rng([seed, 19])
     draws = proposal.sample(int(n), rng)
     log_q = np.asarray(proposal.log_pdf(draws), dtype=np.float64).reshape(-1)
-    log_w = np.asarray(log_joint(draws), dtype=np.float64) - log_q
-    log_w[~np.isfinite(log_w)] = -np.inf
-    log_z = float(logsumexp(log_w) - np.log(n))
+    return weigh(draws, np.asarray(log_joint(draws), dtype=np.float64) - log_q, int(n), rng)
+
+
+def weigh(draws: np.ndarray, log_w: np.ndarray, n: int, rng: np.random.Generator) -> Importance:
+    """The :class:`Importance` of proposal draws `M x D` with log weights ``log_w`` `M`
+    (target minus proposal log density; not finite: weight 0), and ``n`` draws resampled."""
+    log_w = np.where(np.isfinite(log_w), log_w, -np.inf)
+    m = draws.shape[0]
+    log_z = float(logsumexp(log_w) - np.log(m))
     w = np.exp(log_w - log_w.max())
     ess = float(w.sum() ** 2 / np.square(w).sum())
-    rel = float(np.std(w / w.mean(), ddof=1) / np.sqrt(n))
+    rel = float(np.std(w / w.mean(), ddof=1) / np.sqrt(m))
     return Importance(log_z, rel, ess, draws[resample(w, n, rng)], pareto_k(log_w))
 
 
