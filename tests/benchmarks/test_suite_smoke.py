@@ -124,3 +124,18 @@ def test_early_batch_experiment_prints_its_row() -> None:
     assert proc.returncode == 0, proc.stderr[-2000:]
     rows = [json.loads(line[4:]) for line in proc.stdout.splitlines() if line.startswith("ROW ")]
     assert [r["variant"] for r in rows] == ["averaged"] and rows[0]["runs"] > 0
+
+
+@pytest.mark.slow
+def test_draws_benchmark_prints_both_ways() -> None:
+    """``scripts/bench_draws.py``: the final draws in one pass and pooled, on one emulator (a
+    small cap and short chains: a check that it runs)."""
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "bench_draws.py"), "--cases", "edge2_p1",
+         "--seeds", "1", "--options",
+         '{"max_model_evaluations": 5, "n_walkers": 16, "n_steps": 20, "final_steps": 20, '
+         '"n_evidence": 500, "error_draws": 2}'], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    rows = [json.loads(line[4:]) for line in proc.stdout.splitlines() if line.startswith("ROW ")]
+    assert [r["way"] for r in rows] == ["one", "pooled"]
+    assert rows[0]["passes"] == [0] and all(r["case"] == "edge2_p1" and r["runs"] > 0 for r in rows)
