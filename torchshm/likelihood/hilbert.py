@@ -30,6 +30,7 @@ larger than :data:`SHARE` of the points (short lengths) are left to the dense fo
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import torch
 from torch import Tensor
@@ -53,11 +54,18 @@ def applies(kern: Kernel) -> bool:
     return getattr(kern, "gaussian_spread", None) is not None
 
 
+def _basis(half: float, longest: Any, shortest: Any) -> tuple[Any, Any]:
+    """The interval's half-width ``L*`` [m] and the (fractional) number of sines that positions
+    of half-range ``half`` [m] call for, for spreads ``longest`` (the margin) and ``shortest``
+    (the highest frequency): floats or tensors."""
+    reach = half + MARGIN * longest
+    return reach, 2.0 * KAPPA * reach / (math.pi * shortest)
+
+
 def sizes(x: Tensor, kern: Kernel, length: Tensor) -> Tensor:
     """The basis size `B` (int64) each row's own length calls for at positions ``x`` (`n`)."""
     spread = kern.gaussian_spread * length.clamp_min(MIN_LENGTH)
-    half = 0.5 * float(x.max() - x.min())
-    size = 2.0 * KAPPA * (half + MARGIN * spread) / (math.pi * spread)
+    _, size = _basis(0.5 * float(x.max() - x.min()), spread, spread)
     size = torch.where(torch.isfinite(size), size, 2.0**62)  # a NaN or infinite length: never fits
     return torch.ceil(size.clamp_max(2.0**62)).to(torch.int64)
 
@@ -95,8 +103,8 @@ def _log_density(resid: Tensor, noise: Tensor, x: Tensor, kern: Kernel, sigma_a:
     """:func:`log_density` for rows sharing one basis."""
     spread = kern.gaussian_spread * length.detach()
     centre, half = 0.5 * float(x.max() + x.min()), 0.5 * float(x.max() - x.min())
-    reach = half + MARGIN * float(spread.max())  # L*
-    m = math.ceil(2.0 * KAPPA * reach / (math.pi * float(spread.min())))
+    reach, size = _basis(half, float(spread.max()), float(spread.min()))
+    m = math.ceil(size)
     omega = (math.pi / (2.0 * reach)) * torch.arange(1, m + 1, dtype=x.dtype, device=x.device)
     phi = torch.sin(omega * (x - centre + reach)[:, None]) / math.sqrt(reach)  # n x m
     # sigma_a S^½ (B x m): not (sigma_a² S)^½, whose gradient is not finite at sigma_a = 0
