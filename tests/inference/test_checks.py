@@ -135,3 +135,17 @@ def test_an_emulator_posterior_drawn_from_its_chain_is_flagged_and_one_drawn_by_
 
     assert checked("chain") == "EVIDENCE"
     assert checked("importance") == ""
+
+
+def test_emulator_draws_with_an_uncertain_moment_are_flagged() -> None:
+    rng = np.random.default_rng(4)
+    samples = np.column_stack([rng.normal(35.0, 1.0, 4000), rng.gamma(20.0, 0.05, 4000)])
+
+    def checked(error: float) -> str:
+        post = Posterior(["E", "sigma_a"], "emulator", samples, converged=True, priors=PRIORS,
+                         diagnostics={"posterior_draws": "importance", "evidence_ess": 5000.0,
+                                      "importance_passes": 2, "draws_moment_error": error})
+        return warning_tags(check_fit(post).warnings)
+
+    assert checked(0.15) == "EVIDENCE"
+    assert checked(0.02) == ""

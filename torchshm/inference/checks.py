@@ -10,7 +10,8 @@ fix, and to ``post.diagnostics`` the numbers behind them. No check runs the forw
 - ``EXTRAPOLATION``: an emulator's posterior reaching past every model run
   (:func:`extrapolation_lines`).
 - ``EVIDENCE``: the emulator's importance sampling kept too few effective draws, so its draws
-  are the chain's and its log evidence is unreliable (:func:`evidence_line`).
+  are the chain's and its log evidence is unreliable, or it left a moment uncertain
+  (:func:`evidence_line`).
 - ``NOISE MODEL``: the measured strains contradict the assumed noise levels
   (:mod:`torchshm.inference.noise_check`).
 """
@@ -24,6 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 import torchshm.inference.methods  # noqa: F401  (registers the built-in methods)
+from torchshm.inference.adaptive.draws import MOMENT_WARN
 from torchshm.inference.adaptive.final import EXTRAPOLATION_SHARE  # warn at this share beyond the runs
 from torchshm.inference.noise_check import noise_check
 from torchshm.inference.registry import find_method
@@ -118,8 +120,16 @@ def misfit(post: Posterior) -> str | None:
 
 def evidence_line(post: Posterior) -> str | None:
     """``EVIDENCE``: the emulator's final importance sampling fell back to the chain
-    (``diagnostics["posterior_draws"] == "chain"``, :func:`torchshm.inference.adaptive.final.posterior_draws`)."""
+    (``diagnostics["posterior_draws"] == "chain"``), or its passes left a posterior mean or sd
+    with a Monte Carlo error above :data:`~torchshm.inference.adaptive.draws.MOMENT_WARN` of an
+    sd (:func:`torchshm.inference.adaptive.draws.posterior_draws`)."""
     d = post.diagnostics
+    error = float(d.get("draws_moment_error", math.nan))
+    if d.get("posterior_draws") == "importance" and error > MOMENT_WARN:
+        return (f"EVIDENCE: after {int(d.get('importance_passes', 0)) + 1} passes of importance "
+                f"sampling a posterior mean or sd of the emulator's draws still has a Monte Carlo "
+                f"error of {error:.2g} of an sd (a tail that few draws reach). Fix: rerun on the "
+                "same store with a larger n_evidence (no new model runs)")
     if d.get("posterior_draws") != "chain":
         return None
     return (f"EVIDENCE: importance sampling of the emulated posterior kept "
