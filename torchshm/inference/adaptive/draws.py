@@ -95,23 +95,13 @@ def pooled_passes(log_joint: EmulatedLogJoint, first: Mixture, draws: np.ndarray
         error = float(np.max(moment_errors(x, log_w)))
         if error <= MOMENT_TOL or len(passes) > MAX_PASSES or not np.isfinite(error):
             break
-        w = np.exp(np.where(np.isfinite(log_w), log_w, -np.inf) - np.nanmax(log_w))
+        finite = np.where(np.isfinite(log_w), log_w, -np.inf)
+        w = np.exp(finite - finite.max())
         refit = fit_mixture(x[sampling.resample(w, n, rng)], tr, seed + 31 + len(passes))
         passes.append(refit.defensive(plausible, 2.0, DEFENSIVE, SLABS))
         xs.append(passes[-1].sample(n, rng))
         lps.append(np.asarray(log_joint(xs[-1]), dtype=np.float64).reshape(-1))
     return sampling.weigh(x, log_w, n, rng), len(passes) - 1, error
-
-
-def _full_pass(log_joint: EmulatedLogJoint, proposal: Mixture, n: int,
-               seed: int) -> tuple[sampling.Importance, np.ndarray, np.ndarray]:
-    """:func:`.sampling.importance` (the same draws), with the proposal's draws `n x D` and
-    their emulated log joint `n`."""
-    rng = np.random.default_rng([seed, 19])
-    draws = proposal.sample(int(n), rng)
-    log_p = np.asarray(log_joint(draws), dtype=np.float64).reshape(-1)
-    log_q = np.asarray(proposal.log_pdf(draws), dtype=np.float64).reshape(-1)
-    return sampling.weigh(draws, log_p - log_q, int(n), rng), draws, log_p
 
 
 def posterior_draws(log_joint: EmulatedLogJoint, chain: np.ndarray, hard: np.ndarray,
@@ -149,7 +139,7 @@ def posterior_draws(log_joint: EmulatedLogJoint, chain: np.ndarray, hard: np.nda
         return fitted.defensive(plausible, factor, DEFENSIVE, SLABS)
 
     q = proposal(mix, 2.0)
-    best, draws, log_p = _full_pass(log_joint, q, n, seed)
+    best, draws, log_p = sampling.importance_pass(log_joint, q, n, seed)
     if best.ess < REFIT_SHARE * n:  # tails heavier than the defensive part's, or a mode missed
         tries = [(mix, WIDE)]
         if best.ess >= MIN_REFIT_ESS:
@@ -160,9 +150,10 @@ def posterior_draws(log_joint: EmulatedLogJoint, chain: np.ndarray, hard: np.nda
                  for i, t in enumerate(tries)]
         i = int(np.argmax(share))
         if share[i] > best.ess / n:
-            other = _full_pass(log_joint, proposal(*tries[i]), n, seed + 11 + i)
+            tried = proposal(*tries[i])
+            other = sampling.importance_pass(log_joint, tried, n, seed + 11 + i)
             if other[0].ess > best.ess:
-                (best, draws, log_p), mix, q = other, tries[i][0], proposal(*tries[i])
+                (best, draws, log_p), mix, q = other, tries[i][0], tried
     source, info = "importance", {"importance_passes": 0, "draws_moment_error": np.nan}
     if best.ess >= MIN_ESS:  # more passes while a mean or sd rests on a few heavy draws
         pooled, k, error = pooled_passes(log_joint, q, draws, log_p, n, seed, tr, plausible)

@@ -175,10 +175,18 @@ def importance(log_joint: LogDensity, proposal: Proposal, n: int, seed: int) -> 
         proposal's Monte Carlo error) and the Pareto diagnostic of the weights (ArviZ's
         ``psislw``).
     """
+    return importance_pass(log_joint, proposal, n, seed)[0]
+
+
+def importance_pass(log_joint: LogDensity, proposal: Proposal, n: int,
+                    seed: int) -> tuple[Importance, np.ndarray, np.ndarray]:
+    """:func:`importance` (the same draws), with the proposal's draws `n x D` and the log
+    joint `n` there (for pooling with further passes)."""
     rng = np.random.default_rng([seed, 19])
     draws = proposal.sample(int(n), rng)
+    log_p = np.asarray(log_joint(draws), dtype=np.float64).reshape(-1)
     log_q = np.asarray(proposal.log_pdf(draws), dtype=np.float64).reshape(-1)
-    return weigh(draws, np.asarray(log_joint(draws), dtype=np.float64) - log_q, int(n), rng)
+    return weigh(draws, log_p - log_q, int(n), rng), draws, log_p
 
 
 def weigh(draws: np.ndarray, log_w: np.ndarray, n: int, rng: np.random.Generator) -> Importance:
