@@ -124,10 +124,10 @@ def posterior_draws(log_joint: EmulatedLogJoint, chain: np.ndarray, hard: np.nda
     Below :data:`MIN_ESS` the draws are the chain's, thinned to ``n``, and a warning says so.
 
     Returns:
-        ``(result, vp, source)``: the kept :class:`.sampling.Importance` (log evidence [nats],
-        its Monte Carlo sd, effective sample size, Pareto k-hat and `n x D` draws, the chain's
-        when ``source`` is ``"chain"``), the PyVBMC density fitted to the draws (in the
-        coordinates of one mode's shape: :meth:`.mixture.Mixture.pooled_covariance`) and
+        ``(result, vp, source, info)``: the kept :class:`.sampling.Importance` (log evidence
+        [nats], its Monte Carlo sd, effective sample size, Pareto k-hat and `n x D` draws, the
+        chain's when ``source`` is ``"chain"``), the PyVBMC density fitted to the draws (in the
+        coordinates of one mode's shape: :meth:`.mixture.Mixture.pooled_covariance`),
         ``"importance"`` or ``"chain"``, and ``{"importance_passes": k, "draws_moment_error":
         e}`` (the passes after the first and the largest Monte Carlo error of a mean or sd,
         :func:`moment_errors`; 0 and NaN for the chain's draws).
