@@ -97,17 +97,24 @@ def test_trace_exploration_prints_the_rounds() -> None:
     assert lines[-1].startswith("converged False")
 
 
+#: a small cap and short chains for the experiment scripts' smoke runs (a check that they run)
+SMALL_EMULATOR = ('{"max_model_evaluations": 5, "n_walkers": 16, "n_steps": 20, "final_steps": 20, '
+                  '"n_evidence": 500, "error_draws": 2}')
+
+
+def experiment_rows(script: str, *args: str) -> list[dict]:
+    """The ``ROW`` lines of ``scripts/<script>`` run on ``edge2_p1`` with :data:`SMALL_EMULATOR`."""
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / script), "--cases", "edge2_p1", *args,
+         "--options", SMALL_EMULATOR], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return [json.loads(line[4:]) for line in proc.stdout.splitlines() if line.startswith("ROW ")]
+
+
 @pytest.mark.slow
 def test_flank_experiment_prints_its_row() -> None:
-    """``scripts/bench_flank.py``: the emulator with the whitened flank test patched in (a small
-    cap and short chains: a check that it runs)."""
-    proc = subprocess.run(
-        [sys.executable, str(ROOT / "scripts" / "bench_flank.py"), "--cases", "edge2_p1",
-         "--variants", "whitened", "--options",
-         '{"max_model_evaluations": 5, "n_walkers": 16, "n_steps": 20, "final_steps": 20, '
-         '"n_evidence": 500, "error_draws": 2}'], cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    rows = [json.loads(line[4:]) for line in proc.stdout.splitlines() if line.startswith("ROW ")]
+    """``scripts/bench_flank.py``: the emulator with the whitened flank test patched in."""
+    rows = experiment_rows("bench_flank.py", "--variants", "whitened")
     assert [r["variant"] for r in rows] == ["whitened"]
     assert all(r["case"] == "edge2_p1" and r["runs"] > 0 for r in rows)
 
@@ -115,27 +122,14 @@ def test_flank_experiment_prints_its_row() -> None:
 @pytest.mark.slow
 def test_early_batch_experiment_prints_its_row() -> None:
     """``scripts/bench_early_batch.py``: the emulator with its unsure rounds' draws averaged
-    over the emulator's errors (a small cap and short chains: a check that it runs)."""
-    proc = subprocess.run(
-        [sys.executable, str(ROOT / "scripts" / "bench_early_batch.py"), "--cases", "edge2_p1",
-         "--variants", "averaged", "--fields", "2", "--options",
-         '{"max_model_evaluations": 5, "n_walkers": 16, "n_steps": 20, "final_steps": 20, '
-         '"n_evidence": 500, "error_draws": 2}'], cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    rows = [json.loads(line[4:]) for line in proc.stdout.splitlines() if line.startswith("ROW ")]
+    over the emulator's errors."""
+    rows = experiment_rows("bench_early_batch.py", "--variants", "averaged", "--fields", "2")
     assert [r["variant"] for r in rows] == ["averaged"] and rows[0]["runs"] > 0
 
 
 @pytest.mark.slow
 def test_draws_benchmark_prints_both_ways() -> None:
-    """``scripts/bench_draws.py``: the final draws in one pass and pooled, on one emulator (a
-    small cap and short chains: a check that it runs)."""
-    proc = subprocess.run(
-        [sys.executable, str(ROOT / "scripts" / "bench_draws.py"), "--cases", "edge2_p1",
-         "--seeds", "1", "--options",
-         '{"max_model_evaluations": 5, "n_walkers": 16, "n_steps": 20, "final_steps": 20, '
-         '"n_evidence": 500, "error_draws": 2}'], cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    rows = [json.loads(line[4:]) for line in proc.stdout.splitlines() if line.startswith("ROW ")]
+    """``scripts/bench_draws.py``: the final draws in one pass and pooled, on one emulator."""
+    rows = experiment_rows("bench_draws.py", "--seeds", "1")
     assert [r["way"] for r in rows] == ["one", "pooled"]
     assert rows[0]["passes"] == [0] and all(r["case"] == "edge2_p1" and r["runs"] > 0 for r in rows)
