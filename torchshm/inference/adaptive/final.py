@@ -11,8 +11,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from torchshm.inference.adaptive import sampling
+from torchshm.inference.adaptive.draws import posterior_draws
 from torchshm.inference.adaptive.explore import N_SOBOL
-from torchshm.inference.adaptive.draws import DEFENSIVE, SLABS, posterior_draws  # noqa: F401
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint
 from torchshm.inference.adaptive.runs import RunSet
 from torchshm.inference.adaptive.unsure import average_over_errors

@@ -26,7 +26,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from torchshm.inference.adaptive import sampling
-from torchshm.inference.adaptive.final import DEFENSIVE, SLABS, beyond_rows
+from torchshm.inference.adaptive.draws import DEFENSIVE, SLABS
+from torchshm.inference.adaptive.final import beyond_rows
 from torchshm.inference.adaptive.mixture import fit_mixture
 
 if TYPE_CHECKING:
