@@ -23,7 +23,9 @@ parameters; plates and damages by chance: the draw gave no plate and two damages
 2026-11-29, after the last method change, and run once (``--fifth``). :data:`SIXTH` (eight
 cases, 2, 3, 4 and 6 parameters as :data:`FIFTH`) was drawn on 2026-11-29 at 22:00 UTC, while
 the whitened flank test of the exploration was being judged on the other sets, and run once
-with the method as it was decided (``--sixth``).
+with the method as it was decided (``--sixth``). :data:`SEVENTH` (eight cases drawn as
+:data:`SIXTH`, from another seed) was drawn on 2026-12-01 at 21:25 UTC, after the last change
+to the method (the pooled final draws of 2026-11-30), and run once (``--seventh``).
 """
 
 from __future__ import annotations
@@ -55,6 +57,9 @@ N_FIFTH = 12
 #: seed and size of :data:`SIXTH`, the sixth held-out set
 SIXTH_SEED = 2031
 N_SIXTH = 8
+#: seed and size of :data:`SEVENTH`, the seventh held-out set
+SEVENTH_SEED = 2032
+N_SEVENTH = 8
 KERNELS = ("exponential", "matern32", "matern52", "squared_exponential", "independent")
 INERTIA = 0.3  # second moment of area [m^4], as the suite's beams
 
@@ -236,6 +241,11 @@ def generate_sixth(seed: int = SIXTH_SEED, n: int = N_SIXTH) -> dict[str, Case]:
     return _mixed(seed, n, (2, 3, 4, 6), "sixth", plate_share=1 / 3, damage_share=0.5)
 
 
+def generate_seventh(seed: int = SEVENTH_SEED, n: int = N_SEVENTH) -> dict[str, Case]:
+    """The seventh held-out set: as :func:`generate_fifth`, ``n`` cases from another seed."""
+    return _mixed(seed, n, (2, 3, 4, 6), "seventh", plate_share=1 / 3, damage_share=0.5)
+
+
 #: the held-out cases the benchmarks report (name -> :class:`Case`)
 HOLDOUT: dict[str, Case] = generate()
 #: the second held-out set, drawn after every default of the methods was fixed (2026-11-26)
@@ -248,13 +258,15 @@ EDGE: dict[str, Case] = generate_edge()
 FIFTH: dict[str, Case] = generate_fifth()
 #: the sixth held-out set: 2, 3, 4 and 6 physical parameters (drawn 2026-11-29, 22:00 UTC)
 SIXTH: dict[str, Case] = generate_sixth()
+#: the seventh held-out set: 2, 3, 4 and 6 physical parameters (drawn 2026-12-01, 21:25 UTC)
+SEVENTH: dict[str, Case] = generate_seventh()
 #: the held-out sets by their command-line flag (``--holdout``, ``--fresh``, ``--third``,
 #: ``--edge``, ``--fifth`` of the benchmark and reference scripts)
 HELD_OUT: dict[str, dict[str, Case]] = {"holdout": HOLDOUT, "fresh": FRESH, "third": THIRD, "edge": EDGE,
-                                        "fifth": FIFTH, "sixth": SIXTH}
+                                        "fifth": FIFTH, "sixth": SIXTH, "seventh": SEVENTH}
 #: every case a benchmark row or reference may name: the suite's and the held-out sets'
-KNOWN: dict[str, Case] = {**CASES, **HOLDOUT, **FRESH, **THIRD, **EDGE, **FIFTH, **SIXTH}
+KNOWN: dict[str, Case] = {**CASES, **HOLDOUT, **FRESH, **THIRD, **EDGE, **FIFTH, **SIXTH, **SEVENTH}
 
-__all__ = ["EDGE", "EDGE_SEED", "FIFTH", "FIFTH_SEED", "HELD_OUT", "N_EDGE", "N_FIFTH", "N_SIXTH", "SIXTH", "SIXTH_SEED", "FRESH", "FRESH_SEED",
+__all__ = ["EDGE", "EDGE_SEED", "FIFTH", "FIFTH_SEED", "HELD_OUT", "N_EDGE", "N_FIFTH", "N_SIXTH", "SIXTH", "SIXTH_SEED", "SEVENTH", "SEVENTH_SEED", "N_SEVENTH", "FRESH", "FRESH_SEED",
            "HOLDOUT", "KNOWN", "N_CASES", "N_FRESH", "N_THIRD", "SEED", "THIRD", "THIRD_SEED", "generate",
-           "generate_edge", "generate_fifth", "generate_fresh", "generate_sixth", "generate_third"]
+           "generate_edge", "generate_fifth", "generate_fresh", "generate_seventh", "generate_sixth", "generate_third"]
