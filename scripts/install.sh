@@ -40,12 +40,12 @@ if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
     install_uv || { echo "uv could not install torchshm's requirements: pip instead"; install_pip || exit 1; }
     echo "$want" > "$stamp"
 fi
-# Byte-code for torchshm's own (editable) sources and the benchmark cases, written now: where
+# Byte-code for torchshm's own (editable) sources, the benchmark cases, examples and studies: where
 # PYTHONDONTWRITEBYTECODE is set (as on some CI machines) Python never writes it itself, and
 # every process then compiles its imports from source (the main job: 39 s against 22-24 s,
 # 14 s of it in `compile`, 2026-12-01). uv is asked for the installed packages' byte-code
 # above (--compile-bytecode; it writes none by default); pip writes it by default.
-.venv/bin/python -m compileall -q -j 0 torchshm benchmarks >/dev/null || true
+.venv/bin/python -m compileall -q -j 0 torchshm benchmarks examples studies >/dev/null || true
 if ! command -v ccx >/dev/null 2>&1; then
     if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
         echo "installing CalculiX (apt-get install calculix-ccx) for examples/calculix_slab"

@@ -8,7 +8,7 @@ import pytest
 import torchshm
 from torchshm.inference import registry
 from torchshm.inference.posterior import Posterior
-from torchshm.inference.registry import Method, get_method, method_names, refuse
+from torchshm.inference.registry import Method, get_method, method_names, refuse, resolve_aliases
 from tests.inference.test_validate import Counting, problem_of
 
 
@@ -56,4 +56,22 @@ def test_an_unknown_method_is_refused_before_any_model_run(prior_method: Method)
     with pytest.raises(ValueError, match=r"unknown method 'priors' \(did you mean 'prior'\?\); "
                                          r"choose one of \(.*'emulator'.*'prior'\)"):
         torchshm.identify(problem_of(model), method="priors")
+    assert model.calls == 0
+
+
+def test_an_alias_is_renamed_before_the_checks_and_an_unset_one_dropped() -> None:
+    assert resolve_aliases("vbmc", {"max_model_evaluations": 40, "display": "off"}) == \
+        {"max_fun_evals": 40, "display": "off"}
+    assert resolve_aliases("vbmc", {"max_model_evaluations": None, "max_fun_evals": 50}) == {"max_fun_evals": 50}
+    assert resolve_aliases("emulator", {"max_model_evaluations": 40}) == {"max_model_evaluations": 40}  # its own
+    with pytest.raises(ValueError, match="name the same setting"):
+        resolve_aliases("vbmc", {"max_model_evaluations": 40, "max_fun_evals": 50})
+    with pytest.raises(ValueError, match="unknown method"):
+        resolve_aliases("vmbc", {})
+
+
+def test_identify_takes_vbmcs_budget_under_the_emulators_name() -> None:
+    model = Counting()
+    with pytest.raises(ValueError, match=r"max_fun_evals \(method.max_fun_evals\) must be at least"):
+        torchshm.identify(problem_of(model), method="vbmc", max_model_evaluations=3)  # as max_fun_evals=3 is
     assert model.calls == 0

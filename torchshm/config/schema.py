@@ -110,6 +110,7 @@ class VBMCConfig(MethodConfig):
 
     name: str = "vbmc"
     max_fun_evals: Optional[int] = None  # budget of log-joint (model) evaluations
+    max_model_evaluations: Optional[int] = None  # the same budget under the emulator's name
     n_samples: int = 100_000  # samples drawn from the variational posterior
 
 

@@ -33,7 +33,8 @@ def identify(
             ``log_every`` emcee steps), or None.
         **options: method options. VBMC: ``n_samples``, ``start``
             (:class:`~torchshm.inference.start.StartSettings`), ``reuse`` and any PyVBMC option
-            (``max_fun_evals``, ``display``, ...). emcee: ``n_walkers`` (40), ``n_steps`` (2000),
+            (``max_fun_evals``, also under the emulator's name ``max_model_evaluations``,
+            ``display``, ...). emcee: ``n_walkers`` (40), ``n_steps`` (2000),
             ``burn``, ``thin``, ``backend_path``, ``log_every``, ``window``, ``moves``.
             emulator (few model runs, in concurrent batches): ``batch_size`` (5),
             ``max_model_evaluations``, ``n_jobs``, ``executor`` and the stop rule's
@@ -55,8 +56,10 @@ def identify(
             at once after one line on stderr; every finished model run is in the problem's
             store, and the same call on the same store resumes.
     """
+    from torchshm.inference.registry import resolve_aliases
     from torchshm.storage.interrupt import resumable, store_of
 
+    options = resolve_aliases(method, options)  # e.g. VBMC's max_model_evaluations: max_fun_evals
     validate(problem, method, seed, log_dir, options)
     with resumable(f"identify ({method})", store_of(problem)):
         before = int(problem.n_model_evaluations)

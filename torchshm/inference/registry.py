@@ -13,7 +13,7 @@ from __future__ import annotations
 import difflib
 import importlib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -47,6 +47,9 @@ class Method:
         not_converged: ``not_converged(posterior)``: the ``NOT CONVERGED: ...`` line saying what
             it reported and what to raise (default: a generic line).
         failed_runs: what it does with a failed model run, for the warning that counts them.
+        aliases: other names of its options, ``{alias: option}`` (e.g. VBMC's budget under the
+            emulator's name, ``max_model_evaluations``, so that one setting serves a sweep over
+            methods); :func:`resolve_aliases` renames them before any check.
     """
 
     name: str
@@ -60,6 +63,7 @@ class Method:
     charge: Callable[[Options, int, int, int], Options] | None = None
     not_converged: Callable[[Any], str] | None = None
     failed_runs: str = "left out"
+    aliases: dict[str, str] = field(default_factory=dict)
 
     def run(self) -> Callable[..., Any]:
         """The runner function (imported when given as ``"module:function"``)."""
@@ -102,6 +106,29 @@ def find_method(name: object) -> Method | None:
     return _METHODS.get(name)  # type: ignore[arg-type]
 
 
+def resolve_aliases(method: str, options: Options) -> Options:
+    """``options`` with ``method``'s aliases (:attr:`Method.aliases`) renamed to their options;
+    an alias set to None is dropped (unset), as an unset option is.
+
+    Raises:
+        ValueError: for an unknown method (:func:`get_method`), or an alias and its option both
+            given with different values.
+    """
+    aliases = get_method(method).aliases
+    if not any(key in options for key in aliases):
+        return options
+    out = {k: v for k, v in options.items() if k not in aliases}
+    for alias, name in aliases.items():
+        value = options.get(alias)
+        if value is None:
+            continue
+        if out.get(name) is not None and out[name] != value:
+            refuse(method, f"{alias} (method.{alias}) = {value!r} and {name} (method.{name}) = "
+                           f"{out[name]!r} name the same setting; give one of them")
+        out[name] = value
+    return out
+
+
 def refuse(method: str, text: str) -> None:
     """Raise the one-line refusal of an option value: ``identify: method='<method>': <text>``."""
     raise ValueError(f"identify: method={method!r}: {text}")
@@ -114,4 +141,5 @@ def check_walkers(method: str, n_walkers: Any, dim: int) -> None:
                        f"(2 x {dim} = {2 * dim}), got {n_walkers}; raise n_walkers")
 
 
-__all__ = ["Method", "check_walkers", "find_method", "get_method", "method_names", "refuse", "register_method"]
+__all__ = ["Method", "check_walkers", "find_method", "get_method", "method_names", "refuse", "register_method",
+           "resolve_aliases"]

@@ -83,4 +83,5 @@ VBMC = register_method(Method(
     pass_through=pyvbmc_option_names,
     pass_through_doc="PyVBMC's options (pyvbmc.vbmc.options.declared_option_names())", check=check, first_point=first_point, charge=charge,
     not_converged=not_converged, failed_runs="imputed the lowest log joint seen",
+    aliases={"max_model_evaluations": "max_fun_evals"},
 ))
