@@ -63,7 +63,7 @@ class Method:
     charge: Callable[[Options, int, int, int], Options] | None = None
     not_converged: Callable[[Any], str] | None = None
     failed_runs: str = "left out"
-    aliases: dict[str, str] = field(default_factory=dict)
+    aliases: dict[str, str] = field(default_factory=dict, hash=False)  # a Method stays hashable
 
     def run(self) -> Callable[..., Any]:
         """The runner function (imported when given as ``"module:function"``)."""
