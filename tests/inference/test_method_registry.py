@@ -75,3 +75,16 @@ def test_identify_takes_vbmcs_budget_under_the_emulators_name() -> None:
     with pytest.raises(ValueError, match=r"max_fun_evals \(method.max_fun_evals\) must be at least"):
         torchshm.identify(problem_of(model), method="vbmc", max_model_evaluations=3)  # as max_fun_evals=3 is
     assert model.calls == 0
+
+
+def test_emcee_keeps_within_a_budget_of_model_runs_and_says_the_budget_ended_it() -> None:
+    model = Counting()
+    post = torchshm.identify(problem_of(model), method="emcee", seed=0, n_walkers=8, n_steps=1000,
+                             max_model_evaluations=50)
+    assert model.calls <= 50 and post.n_model_evaluations == model.calls  # the output check included
+    assert post.diagnostics["n_steps"] == (50 - 1) // 8 - 1 and post.diagnostics["capped_by_budget"]
+    assert not post.converged and "raise max_model_evaluations" in post.warnings[0]
+    refused = Counting()
+    with pytest.raises(ValueError, match=r"max_model_evaluations \(method.max_model_evaluations\) = 20 leaves 1 step"):
+        torchshm.identify(problem_of(refused), method="emcee", n_walkers=8, max_model_evaluations=20)
+    assert refused.calls == 0

@@ -126,6 +126,7 @@ class EmceeConfig(MethodConfig):
     log_every: int = 100  # steps between trace rows (TensorBoard, trace.png)
     window: int = 1000  # samples behind each trace row's running marginals (paper, Fig. 5)
     backend_path: Optional[str] = None  # HDF5 chain file, resumed when it exists
+    max_model_evaluations: Optional[int] = None  # cap on model runs: at most this // n_walkers - 1 steps
 
 
 @dataclass

@@ -118,6 +118,7 @@ def run_emcee(
     log_every: int = 100,
     window: int = 1000,
     moves: Any = None,
+    max_model_evaluations: int | None = None,
 ) -> Posterior:
     """Run emcee on ``problem`` (see :func:`torchshm.identify`).
 
@@ -134,6 +135,10 @@ def run_emcee(
         window: samples (steps x walkers) behind each trace row's running marginals (paper's
             Fig. 5: the last 1,000).
         moves: emcee moves (None: the stretch move, emcee's default).
+        max_model_evaluations: a cap on model runs, the emulator's option of that name: the
+            chain takes at most ``max_model_evaluations // n_walkers - 1`` steps in all (the
+            walkers' starts take one run each; :func:`capped_steps`), fewer than ``n_steps``
+            where the cap binds; or None.
 
     Returns:
         The :class:`Posterior`; ``converged`` is True when the chain after burn-in is at least
@@ -142,6 +147,7 @@ def run_emcee(
     t0 = time.perf_counter()
     names = list(problem.names)
     hard = np.asarray(problem.hard_bounds, dtype=np.float64)
+    asked, n_steps = n_steps, capped_steps(n_steps, n_walkers, max_model_evaluations)
     burn = n_steps // 2 if burn is None else int(burn)
     if not 0 <= burn < n_steps:
         raise ValueError(f"emcee: burn must be in [0, n_steps), got burn={burn}, n_steps={n_steps}")
@@ -188,7 +194,17 @@ def run_emcee(
     return _posterior(problem, backend, trace, target, calls_before, burn, thin, {
         "n_walkers": n_walkers, "n_steps": int(backend.iteration), "n_resumed_steps": done,
         "burn": burn, "thin": thin, "wall_time_s": time.perf_counter() - t0,
+        "capped_by_budget": n_steps < asked,
     })
+
+
+def capped_steps(n_steps: int, n_walkers: int, max_model_evaluations: int | None) -> int:
+    """Steps of a chain of ``n_walkers`` walkers: ``n_steps``, or fewer where a cap of
+    ``max_model_evaluations`` model runs binds (at most one run per walker for its start and
+    one per walker and step: a proposal outside the hard bounds runs none)."""
+    if max_model_evaluations is None:
+        return int(n_steps)
+    return min(int(n_steps), int(max_model_evaluations) // int(n_walkers) - 1)
 
 
 def _posterior(
