@@ -69,13 +69,16 @@ def test_method_vbmc_options(compose_cfg) -> None:
 
 
 def test_method_vbmc_takes_its_budget_under_the_emulators_name(compose_cfg) -> None:
-    s = to_settings(compose_cfg("method=vbmc", "method.max_model_evaluations=70"))
-    assert method_options(s.method) == {"max_fun_evals": 70, "n_samples": 100_000}
-    s = to_settings(compose_cfg("method=vbmc", "method.max_model_evaluations=70", "method.max_fun_evals=70"))
-    assert method_options(s.method)["max_fun_evals"] == 70  # the same value twice is the one setting
-    s = to_settings(compose_cfg("method=vbmc", "method.max_model_evaluations=70", "method.max_fun_evals=80"))
+    from torchshm.inference.registry import resolve_aliases  # as the command line's job does
+
+    def options(*overrides: str) -> dict:
+        s = to_settings(compose_cfg("method=vbmc", *overrides))
+        return resolve_aliases(s.method.name, method_options(s.method))
+
+    assert options("method.max_model_evaluations=70") == {"max_fun_evals": 70, "n_samples": 100_000}
+    assert options("method.max_model_evaluations=70", "method.max_fun_evals=70")["max_fun_evals"] == 70
     with pytest.raises(ValueError, match=r"max_model_evaluations .* = 70 and max_fun_evals .* = 80 name the same setting"):
-        method_options(s.method)
+        options("method.max_model_evaluations=70", "method.max_fun_evals=80")
 
 
 def test_method_emcee_has_the_paper_settings(compose_cfg) -> None:

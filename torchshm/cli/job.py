@@ -208,12 +208,20 @@ def prepare_job(settings: Config, base: Path) -> PreparedJob:
     problem = build_problem(settings, model, measurements, base, priors)
     if held_out is not None:  # the held-out predictive comes after inference: refused now, not then
         check_predictive_memory(problem, len(held_out.loads), settings.predict.n)
-    method, options = settings.method.name, method_options(settings.method)
+    method, options = settings.method.name, _options(settings)
     validate(problem, method, settings.seed, None, options)  # one line naming the input, the fix
     check_model_output(problem, method, settings.seed, options)  # at most one model run
     n_checked = int(problem.n_model_evaluations)  # counted with the run's (run_job)
     labels = parameter_labels(settings.priors, model.model if isinstance(model, ParallelModel) else model)
     return PreparedJob(settings, problem, measurements, held_out, t0, labels, model, n_checked)
+
+
+def _options(settings: Config) -> dict[str, object]:
+    """The method's options of ``settings`` for :func:`torchshm.identify`, aliases renamed
+    (e.g. VBMC's ``method.max_model_evaluations``: :func:`~torchshm.inference.registry.resolve_aliases`)."""
+    from torchshm.inference.registry import resolve_aliases
+
+    return resolve_aliases(settings.method.name, method_options(settings.method))
 
 
 def check_predictive_memory(problem: Problem, n_loads: int, n: int) -> None:
@@ -249,7 +257,7 @@ def _run(job: PreparedJob, out_dir: Path) -> JobResult:
              problem.names, settings.method.name, settings.kernel.name.value,
              len(settings.data.loads), job.measurements.n)
     method = settings.method.name
-    options = charge_check(method, method_options(settings.method), len(problem.names),
+    options = charge_check(method, _options(settings), len(problem.names),
                            len(problem.physical_names), job.n_checked)  # within the budget
     post = torchshm.identify(problem, method=method, seed=settings.seed, log_dir=out_dir / "tb",
                              **options)

@@ -47,17 +47,12 @@ def check_known_keys(node: DictConfig, path: str = "") -> None:
 
 
 def method_options(method: MethodConfig) -> dict[str, object]:
-    """Keyword options of :func:`torchshm.identify` for ``method`` (unset ones left out, aliases
-    renamed: :func:`~torchshm.inference.registry.resolve_aliases`)."""
-    import torchshm.inference.methods  # noqa: F401  (registers the built-in methods)
-    from torchshm.inference.registry import method_names, resolve_aliases
-
-    options = {
+    """Keyword options of :func:`torchshm.identify` for ``method`` (unset ones left out)."""
+    return {
         f.name: getattr(method, f.name)
         for f in fields(method)
         if f.name != "name" and getattr(method, f.name) is not None
     }
-    return resolve_aliases(method.name, options) if method.name in method_names() else options
 
 
 def _first_line(err: BaseException) -> str:
