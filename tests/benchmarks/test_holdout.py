@@ -16,6 +16,16 @@ from benchmarks.catalog import CASES  # noqa: E402
 from benchmarks.holdout import HOLDOUT, N_CASES, SEED, generate  # noqa: E402
 
 
+def _assert_valid(case) -> None:
+    """A held-out case is a valid problem: a finite log joint at its truth, and its truths
+    inside the plausible box."""
+    problem = make_problem(case)
+    assert np.isfinite(float(problem.log_joint(truth_vector(case, list(problem.names)))))
+    for name, value in case.truth.items():
+        low, high = case.priors[name].plausible_bounds
+        assert low < value < high
+
+
 def test_the_same_seed_draws_the_same_cases_and_another_seed_others() -> None:
     again = generate(SEED, N_CASES)
     assert list(again) == list(HOLDOUT)
@@ -29,11 +39,7 @@ def test_held_out_cases_are_new_problems_of_every_dimension() -> None:
     assert not set(HOLDOUT) & set(CASES)
     assert {c.n_physical for c in HOLDOUT.values()} == {2, 3, 4}
     for case in HOLDOUT.values():
-        problem = make_problem(case)
-        assert np.isfinite(float(problem.log_joint(truth_vector(case, list(problem.names)))))
-        for name, value in case.truth.items():  # truths inside the plausible box
-            low, high = case.priors[name].plausible_bounds
-            assert low < value < high
+        _assert_valid(case)
 
 
 def test_the_second_set_is_new_and_holds_plates_and_six_parameters() -> None:
@@ -45,11 +51,7 @@ def test_the_second_set_is_new_and_holds_plates_and_six_parameters() -> None:
     assert {c.n_physical for c in FRESH.values()} == {2, 3, 4, 6}
     assert any(c.model().x.ndim == 2 for c in FRESH.values())  # a plate's field (n x 2)
     for case in FRESH.values():
-        problem = make_problem(case)
-        assert np.isfinite(float(problem.log_joint(truth_vector(case, list(problem.names)))))
-        for name, value in case.truth.items():
-            low, high = case.priors[name].plausible_bounds
-            assert low < value < high
+        _assert_valid(case)
 
 
 def test_the_third_set_is_new_and_holds_damage_and_five_parameters() -> None:
@@ -107,8 +109,4 @@ def test_the_fifth_to_seventh_sets_are_new_draws_of_every_target_dimension() -> 
         assert set(cases) <= set(KNOWN)
     assert HELD_OUT["seventh"] is SEVENTH
     for case in SEVENTH.values():
-        problem = make_problem(case)
-        assert np.isfinite(float(problem.log_joint(truth_vector(case, list(problem.names)))))
-        for name, value in case.truth.items():
-            low, high = case.priors[name].plausible_bounds
-            assert low < value < high
+        _assert_valid(case)
