@@ -12,7 +12,9 @@ predictive draw. Each (size, l, σm) runs in a fresh process, one thread (``OMP_
 - at 10^4 points, beside them, the dense path (``method="dense"``) and the difference;
 
 and the peak memory growth (``VmHWM`` after the calls minus the resident set before them).
-``--sides`` picks the sizes (default 100, 316, 1000: 10^4, 10^5, 10^6 nodes).
+``--sides`` picks the sizes (default 100, 316, 1000: 10^4, 10^5, 10^6 nodes); ``--sigma-e`` and
+``--sigma-m`` the noise (``--sigma-e 0 --sigma-m 0``: every reading exact, the form that fixes
+the field at the observed nodes and integrates the holes).
 
 Usage (from the repository root)::
 
@@ -58,24 +60,24 @@ def _timed(call):
     return out, time.process_time() - cpu, time.perf_counter() - wall
 
 
-def one(side: int, length: float, sigma_m: float, seed: int) -> None:
-    """(child) one size, length and σm: tab-separated rows ``label, CPU, wall, value``."""
+def one(side: int, length: float, sigma_m: float, seed: int, sigma_e: float = SE) -> None:
+    """(child) one size, length, σm and σe: tab-separated rows ``label, CPU, wall, value``."""
     torch.set_num_threads(1)
     small = torch.tensor(field(12, seed))  # warm-up of the code paths (imports, first calls)
     torchshm.log_likelihood(torch.ones(1, len(small)), torch.ones(1, 1, len(small)), small,
-                            "separable_exponential", SA, length, sigma_m, SE)
+                            "separable_exponential", SA, length, sigma_m, sigma_e)
     x = torch.tensor(field(side, seed))
     n = x.shape[0]
     eta = torch.tensor(np.random.default_rng(seed + 1).uniform(20.0, 100.0, (1, 1, n)))
     before = _rss("VmRSS:")
     gen = torch.Generator().manual_seed(seed)
     draw, cpu, wall = _timed(lambda: predictive_draws(eta, x, "separable_exponential", torch.tensor([SA]),
-                                                      torch.tensor([length]), sigma_m, SE, gen))
+                                                      torch.tensor([length]), sigma_m, sigma_e, gen))
     print(f"draw\t{cpu}\t{wall}\tnan")
     y = draw[0]
 
     def call(method: str = "auto") -> float:
-        return float(torchshm.log_likelihood(y, eta, x, "separable_exponential", SA, length, sigma_m, SE, method=method))
+        return float(torchshm.log_likelihood(y, eta, x, "separable_exponential", SA, length, sigma_m, sigma_e, method=method))
 
     value, cpu, wall = _timed(call)
     print(f"first\t{cpu}\t{wall}\t{value}")
@@ -92,21 +94,25 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--sides", default="100,316,1000")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--sigma-e", type=float, default=SE, help="noise sd [µε] (default 0.1)")
+    parser.add_argument("--sigma-m", default=",".join(map(str, SIGMA_M)), help="σm values (default 0,0.05)")
     parser.add_argument("--one", default="", help=argparse.SUPPRESS)  # side,length,sigma_m (child)
     args = parser.parse_args(argv)
     if args.one:
         side, length, sigma_m = args.one.split(",")
-        one(int(side), float(length), float(sigma_m), args.seed)
+        one(int(side), float(length), float(sigma_m), args.seed, args.sigma_e)
         return
-    print(f"uptime: {os.getloadavg()} (1, 5, 15 min load averages); {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+    print(f"uptime: {os.getloadavg()} (1, 5, 15 min load averages); {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; "
+          f"σe = {args.sigma_e} µε")
     print("| n (side², 10 % holes) | l [m] | σm | first call CPU [s] | next call CPU [s] | next call wall [s] "
           "| draw CPU [s] | peak memory growth [MB] | dense CPU [s] | lattice − dense [nat] |")
     print("| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for side in (int(s) for s in args.sides.split(",")):
         for length in LENGTHS:
-            for sigma_m in SIGMA_M:
+            for sigma_m in (float(v) for v in args.sigma_m.split(",")):
                 out = subprocess.run([sys.executable, __file__, "--one", f"{side},{length},{sigma_m}",
-                                      "--seed", str(args.seed)], check=True, capture_output=True, text=True)
+                                      "--seed", str(args.seed), "--sigma-e", str(args.sigma_e)],
+                                     check=True, capture_output=True, text=True)
                 rows = {line.split("\t")[0]: line.split("\t")[1:] for line in out.stdout.strip().splitlines()}
                 n = len(field(side, args.seed))
                 dense = rows.get("dense")

@@ -127,6 +127,52 @@ def test_gradients_are_the_dense_ones(rng: np.random.Generator) -> None:
         torch.testing.assert_close(got, want, rtol=1e-7, atol=1e-9)
 
 
+def test_readings_without_noise_are_exact(rng: np.random.Generator) -> None:
+    """sigma_e = 0: with sigma_m = 0 every reading fixes the field at its node, with sigma_m > 0
+    only those where eta is 0; the lattice form (chosen by "auto") equals the dense Cholesky
+    and scipy's multivariate normal to 1e-7 relative, and its gradients the dense path's."""
+    x = torch.tensor(_field(rng, 14, 11))
+    n = x.shape[0]
+    kern = get_kernel(NAME)
+    y = torch.tensor(rng.normal(100.0, 50.0, (2, n)))
+    eta = torch.tensor(rng.normal(100.0, 50.0, (3, 2, n)))
+    eta[1, :, rng.random(n) < 0.4] = 0.0  # exact readings among noisy ones (sigma_m > 0)
+    sa, ell = torch.tensor([30.0, 60.0, 10.0]), torch.tensor([0.005, 0.05, 0.2])
+    assert choice.choose_method(kern, n, "auto", noise_positive=False, dim=2, x=x) == "lattice"
+    for sm in (0.0, 0.05):
+        got = torchshm.log_likelihood(y, eta, x, NAME, sa, ell, sigma_m=sm, sigma_e=0.0)
+        dense = torchshm.log_likelihood(y, eta, x, NAME, sa, ell, sigma_m=sm, sigma_e=0.0, method="dense")
+        torch.testing.assert_close(got, dense, rtol=1e-7, atol=0)
+        for b in (0, 1):
+            cov = kern(x, sigma_a=sa[b], length=ell[b]).numpy()
+            want = sum(multivariate_normal(eta[b, k].numpy(), cov + np.diag((sm * eta[b, k].numpy()) ** 2)
+                                           ).logpdf(y[k].numpy()) for k in range(2))
+            assert float(got[b]) == pytest.approx(want, rel=1e-7)
+    grads = []
+    for method in ("lattice", "dense"):
+        e = eta[0].clone().requires_grad_(True)
+        s, l = torch.tensor(30.0, requires_grad=True), torch.tensor(0.02, requires_grad=True)
+        torchshm.log_likelihood(y, e, x, NAME, s, l, sigma_m=0.0, sigma_e=0.0, method=method).sum().backward()
+        grads.append([t.grad for t in (e, s, l)])
+    for got, want in zip(*grads):
+        torch.testing.assert_close(got, want, rtol=1e-6, atol=1e-8)
+
+
+def test_two_readings_without_noise_at_one_node_are_refused(rng: np.random.Generator) -> None:
+    """A repeated point without noise makes the density singular: "auto" keeps the dense form
+    for it, ``method='lattice'`` and the lattice density refuse it in one line."""
+    x = torch.tensor(_field(rng, 8, 6))
+    x = torch.cat([x, x[:1]])
+    n = x.shape[0]
+    kern = get_kernel(NAME)
+    assert choice.choose_method(kern, n, "auto", noise_positive=True, dim=2, x=x) == "lattice"
+    assert choice.choose_method(kern, n, "auto", noise_positive=False, dim=2, x=x) == "dense"
+    with pytest.raises(ValueError, match="points repeat"):
+        choice.choose_method(kern, n, "lattice", noise_positive=False, dim=2, x=x)
+    with pytest.raises(ValueError, match="two readings without noise"):
+        lattice.log_density(torch.ones(1, 1, n), torch.zeros(1, 1, n), x, torch.tensor([1.0]), torch.tensor([0.1]))
+
+
 def test_draws_have_the_kernels_covariance() -> None:
     """20,000 draws (fixed seed) on a 6 x 5 grid with a hole: empirical covariance within 0.04
     (of the largest entry, 3.5 standard errors) of sa² exp(-|dx|/l - |dy|/l) + se² I."""
@@ -151,15 +197,13 @@ def test_choice_lattice_on_a_grid_dense_elsewhere_never_the_euclidean_forms(rng:
     assert choice.choose_method(kern, n, "auto", dim=2, x=grid) == "lattice"
     assert choice.choose_method(kern, n, "lattice", dim=2, x=grid) == "lattice"
     assert choice.choose_method(kern, n, "dense", dim=2, x=grid) == "dense"
-    assert choice.choose_method(kern, n, "auto", noise_positive=False, dim=2, x=grid) == "dense"
+    assert choice.choose_method(kern, n, "auto", noise_positive=False, dim=2, x=grid) == "lattice"
     assert choice.choose_method(kern, 6000, "auto", dim=2, x=off) == "dense"  # beyond VECCHIA_FROM
     for method in ("vecchia", "fullscale"):
         with pytest.raises(ValueError, match="L1 distance"):
             choice.choose_method(kern, n, method, dim=2, x=grid)
     with pytest.raises(ValueError, match="not on one regular grid|these points are not"):
         choice.choose_method(kern, 6000, "lattice", dim=2, x=off)
-    with pytest.raises(ValueError, match="sigma_e is 0"):
-        choice.choose_method(kern, n, "lattice", noise_positive=False, dim=2, x=grid)
     with pytest.raises(ValueError, match="kernel 'matern32' has none"):
         choice.choose_method(get_kernel("matern32"), n, "lattice", dim=2, x=grid)
     monkeypatch.setattr(choice, "_physical_memory", lambda: 2**30)  # a 1 GiB machine
@@ -202,9 +246,12 @@ class _Field:
         return paper_priors()
 
 
-def test_a_problem_on_a_field_evaluates_as_the_dense_path(rng: np.random.Generator) -> None:
+@pytest.mark.parametrize("sigma_e, sigma_m", [(0.5, 0.05), (0.0, 0.0)])
+def test_a_problem_on_a_field_evaluates_as_the_dense_path(rng: np.random.Generator, sigma_e: float,
+                                                          sigma_m: float) -> None:
     """``torchshm.Problem`` with ``kernel="separable_exponential"`` on a 15 x 12 field with holes
-    (the lattice form) equals the same problem with the kernel forced dense, to 1e-9."""
+    (the lattice form; with sigma_e = sigma_m = 0 every reading exact) equals the same problem
+    with the kernel forced dense, to 1e-9 (1e-7 without noise)."""
     from torchshm.kernels.separable import SeparableExponential
 
     class DenseOnly(SeparableExponential):  # the same kernel without its sparse form
@@ -213,11 +260,11 @@ def test_a_problem_on_a_field_evaluates_as_the_dense_path(rng: np.random.Generat
     x = _field(rng, 15, 12)
     model = _Field(x)
     y = model(torch.tensor([33.0, 11.5])).numpy() + rng.normal(0.0, 0.5, (2, len(x)))
-    meas = torchshm.Measurements(x, y, [10.0, 20.0], sigma_e=0.5)
+    meas = torchshm.Measurements(x, y, [10.0, 20.0], sigma_e=sigma_e)
     theta = np.array([[33.0, 11.5, 0.9, 0.02], [30.0, 11.0, 2.0, 0.1]])
-    sparse = torchshm.Problem(model, meas, kernel="separable_exponential").log_likelihood(theta)
-    dense = torchshm.Problem(model, meas, kernel=DenseOnly()).log_likelihood(theta)
-    np.testing.assert_allclose(sparse, dense, rtol=1e-9)
+    sparse = torchshm.Problem(model, meas, kernel="separable_exponential", sigma_m=sigma_m).log_likelihood(theta)
+    dense = torchshm.Problem(model, meas, kernel=DenseOnly(), sigma_m=sigma_m).log_likelihood(theta)
+    np.testing.assert_allclose(sparse, dense, rtol=1e-9 if sigma_e else 1e-7)
 
 
 def test_the_grid_of_the_same_tensor_is_read_once_and_again_after_a_change() -> None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import logging
 import os
 
+import numpy as np
 from torch import Tensor
 
 from torchshm.kernels import Kernel
@@ -58,7 +59,8 @@ def choose_method(
     Vecchia, :mod:`~torchshm.likelihood.fullscale`) from there; ``"vecchia"`` (plain nearest
     neighbours, fast and far less accurate) only when asked for. Kernel
     ``separable_exponential`` (L1 distance) takes ``"lattice"`` (exact, sparse) on `n x 2`
-    points ``x`` of one regular grid with ``noise_positive``, the dense form elsewhere, and
+    points ``x`` of one regular grid (with ``noise_positive``, or without noise where no two points
+    share a node: readings without noise are exact there), the dense form elsewhere, and
     never the Vecchia or full-scale forms (Euclidean distances). A kernel with a Gaussian
     spectral density (``squared_exponential``) along a line takes, from :data:`HILBERT_FROM`
     points with ``noise_positive``, the reduced-rank form (:mod:`~torchshm.likelihood.hilbert`:
@@ -108,7 +110,7 @@ def choose_method(
         instead = (
             "use 'exponential', 'matern32' or 'matern52' with sigma_e > 0 (exact O(n) state space) "
             "or fewer points (a coarser pitch)" if dim == 1 else
-            "points of one regular grid (holes allowed) with sigma_e > 0 get the exact sparse form "
+            "points of one regular grid (holes allowed; sigma_e > 0 where points repeat) get the exact sparse form "
             "(method='lattice'); else fewer points (a coarser grid)" if own == "lattice" else
             f"{dim}-D coordinates: use method='fullscale' (low rank + nearest neighbours) or fewer "
             "points (a coarser grid)"
@@ -131,19 +133,22 @@ def _lattice_choice(kern: Kernel, method: str, noise_positive: bool, dim: int, x
 
     Raises:
         ValueError: for ``"vecchia"`` or ``"fullscale"`` on coordinates, or ``"lattice"`` where
-            the points are not `n x 2` on one grid or ``sigma_e`` is 0.
+            the points are not `n x 2` on one grid, or repeat a node with ``sigma_e`` 0.
     """
     if method in ("vecchia", "fullscale") and dim > 1:
         raise ValueError(f"kernel {kern.name!r} is of the L1 distance and method={method!r} evaluates "
                          "Euclidean distances; use method='auto' (exact sparse form on a regular grid) or 'dense'")
     if method not in ("auto", "lattice"):
         return None
-    on_grid = dim == 2 and x is not None and lattice(x) is not None
-    if on_grid and noise_positive:
+    grid = lattice(x) if dim == 2 and x is not None else None
+    # without noise, two readings at one node make the density singular (dense: a failed Cholesky)
+    distinct = grid is not None and np.unique(grid.node).size == grid.node.size
+    if grid is not None and (noise_positive or distinct):
         return "lattice"
     if method == "lattice":
-        raise ValueError(f"method='lattice' needs n x 2 points on one regular grid (holes allowed) and "
-                         f"sigma_e > 0; {'sigma_e is 0' if on_grid else 'these points are not'}: use 'dense'")
+        raise ValueError(f"method='lattice' needs n x 2 points on one regular grid (holes allowed), and "
+                         f"sigma_e > 0 where two points share a node; "
+                         f"{'sigma_e is 0 and points repeat' if grid is not None else 'these points are not'}: use 'dense'")
     return None
 
 

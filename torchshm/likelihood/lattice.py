@@ -10,7 +10,10 @@ and repeated points allowed): ``A`` `n x N` selects them. With ``D = diag(noise)
     Σ = A Q⁻¹ Aᵀ + D,      M = Q + Aᵀ D⁻¹ A   (sparse, symmetric positive definite),
     log det Σ = Σ log d + log det M - log det Q,      rᵀ Σ⁻¹ r = rᵀ D⁻¹ r - bᵀ M⁻¹ b,   b = Aᵀ D⁻¹ r,
 
-all exact (Woodbury). ``log det Q`` is analytic (``log det Q1 = -(m - 1) log(1 - rho**2)`` at
+all exact (Woodbury). Readings without noise (``sigma_e = 0`` and ``sigma_m = 0``, or a zero
+prediction with ``sigma_e = 0``) fix the field at their nodes `Z`; the density then integrates
+the other nodes `R` only (:func:`_log_density_fixed`): ``M_RR`` with identity rows at `Z`, and
+``b_R = c_R - Q_RZ r_Z``, ``c = Aᵀ D⁻¹ r`` over the noisy readings. ``log det Q`` is analytic (``log det Q1 = -(m - 1) log(1 - rho**2)`` at
 unit variance). ``log det M`` and ``bᵀ M⁻¹ b`` come from one multifrontal elimination over the
 grid's nested dissection with dense batched blocks (:mod:`torchshm.likelihood.lattice_frontal`),
 once per distinct (``sigma_a``, ``l``, diagonal): load cases with the same diagonal share it.
@@ -49,18 +52,20 @@ def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length
     the CPU in float64 and differentiable (autograd) with respect to every input.
 
     Args:
-        resid: ``y - eta`` `B x L x n` [µε]; noise: the diagonal `B x L x n` [µε²], > 0.
+        resid: ``y - eta`` `B x L x n` [µε]; noise: the diagonal `B x L x n` [µε²], >= 0 (a
+            reading without noise is exact; two of them at one node are refused).
         x: `n x 2` coordinates [m] on one regular grid (:func:`lattice`).
         sigma_a: `B` scales [µε], > 0; length: `B` correlation lengths [m].
 
     Raises:
-        ValueError: for points off a regular grid or a diagonal that is not positive.
+        ValueError: for points off a regular grid, a negative diagonal, or two readings without
+            noise at one node (a singular density).
     """
     grid = lattice(x)
     if grid is None:
         raise ValueError("the lattice form needs n x 2 points on one regular grid (holes allowed)")
-    if not bool((noise > 0).all()):
-        raise ValueError("the lattice form needs a positive diagonal of Eq. (21): sigma_e > 0")
+    if not bool((noise >= 0).all()):
+        raise ValueError("the lattice form needs a diagonal of Eq. (21) >= 0")
     (nx, ny), (px, py) = grid.shape, grid.pitch
     cpu = dict(device="cpu", dtype=torch.float64)
     r, d, sa, ell = (t.to(**cpu) for t in (resid, noise, sigma_a, length))
@@ -75,6 +80,11 @@ def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length
         log_det_q = -ny * (nx - 1) * sx.log() - nx * (ny - 1) * sy.log() - 2.0 * nx * ny * sa[b].log()
         total = r.new_zeros(())
         for same in same_noise(d[b]):
+            exact = d[b, same[0]] == 0
+            if bool(exact.any()):  # readings without noise fix the field at their nodes
+                total = total + _log_density_fixed(r[b, same], d[b, same[0]], node, (nx, ny),
+                                                   (rx, sx, ry, sy), sa[b], log_det_q)
+                continue
             inv = 1.0 / d[b, same[0]]
             weight = inv.new_zeros(nx * ny).index_add(0, node, inv)
             rhs = inv.new_zeros(nx * ny, len(same)).index_add(0, node, (inv * r[b, same]).T)
@@ -84,6 +94,94 @@ def log_density(resid: Tensor, noise: Tensor, x: Tensor, sigma_a: Tensor, length
             total = total - 0.5 * (quad.sum() + len(same) * (log_det + r.shape[2] * LOG_2PI))
         out.append(total)
     return torch.stack(out).to(device=resid.device, dtype=resid.dtype)
+
+
+def _log_density_fixed(r: Tensor, d: Tensor, node: Tensor, shape: tuple[int, int],
+                       factors: tuple[Tensor, Tensor, Tensor, Tensor], sigma_a: Tensor,
+                       log_det_q: Tensor) -> Tensor:
+    """Summed log density of the residuals `k x n` [µε] of load cases with one diagonal `n`
+    [µε²] that is 0 at some readings (module docstring): those fix the field at their nodes `Z`,
+    the others (`P`, noise ``d``) see it with their noise, and the nodes `R` (all but `Z`) are
+    integrated out::
+
+        log p = ½ bᵀ M_RR⁻¹ b - ½ log det M_RR + ½ log det Q - ½ (r_Zᵀ Q_ZZ r_Z + Σ_Z w r_Z²)
+                + Σ_Z c r_Z - ½ r_Pᵀ D⁻¹ r_P - ½ Σ_P log d - ½ (n_P + |Z|) log 2π,
+
+    ``M = Q + diag(w)``, ``w = Aᵀ D⁻¹ 1`` and ``c = Aᵀ D⁻¹ r`` over `P`, ``b = (c - Q r_Z)_R``.
+    ``M_RR`` is eliminated as the nine-point matrix with identity rows and columns at `Z`
+    (:func:`~torchshm.likelihood.lattice_frontal.eliminate`'s stencil).
+    """
+    nx, ny = shape
+    exact = d == 0
+    fixed_nodes = node[exact]
+    if fixed_nodes.unique().numel() < fixed_nodes.numel():
+        raise ValueError("the lattice form: two readings without noise (sigma_e = 0) at one grid node "
+                         "make the density singular; give sigma_e > 0 or drop the repeated point")
+    noisy = ~exact
+    inv = torch.where(noisy, 1.0 / torch.where(noisy, d, 1.0), 0.0)  # 0 at the exact readings
+    k = r.shape[0]
+    weight = inv.new_zeros(nx * ny).index_add(0, node, inv)
+    c = inv.new_zeros(nx * ny, k).index_add(0, node, (inv * r).T)  # N x k
+    fixed = torch.zeros(nx * ny, dtype=torch.bool)
+    fixed[fixed_nodes] = True
+    rz = r.new_zeros(nx * ny, k).index_copy(0, fixed_nodes, r[:, exact].T)  # r_Z at Z, else 0
+    scale = sigma_a.square().reciprocal()
+    q_rz = _kron_apply(rz, shape, factors) * scale  # Q r_Z, N x k
+    rhs = torch.where(fixed[:, None], 0.0, c - q_rz)
+    stencil = _stencil(shape, factors, scale, weight, fixed)
+    log_det_m, bmb = eliminate(shape, None, None, None, rhs, stencil=stencil)
+    zz = (rz * q_rz).sum(0) + (weight[:, None] * rz.square()).sum(0) - 2.0 * (c * rz).sum(0)
+    noisy_part = (r.square() * inv).sum(-1) + torch.where(noisy, d, 1.0).log().sum()
+    count = int(noisy.sum()) + int(fixed_nodes.numel())
+    return 0.5 * (bmb - zz - noisy_part).sum() + 0.5 * k * (log_det_q - log_det_m - count * LOG_2PI)
+
+
+def _axis_apply(v: Tensor, axis: int, rho: Tensor, s: Tensor) -> Tensor:
+    """``Q1 v`` along ``axis`` of ``v``: the tridiagonal unit-variance AR(1) precision."""
+    size = v.shape[axis]
+    if size == 1:
+        return v
+    lo, hi = v.narrow(axis, 0, size - 1), v.narrow(axis, 1, size - 1)
+    zero = torch.zeros_like(v.narrow(axis, 0, 1))
+    below = torch.cat([zero, lo], axis)  # v_(i-1)
+    above = torch.cat([hi, zero], axis)  # v_(i+1)
+    diag = torch.full((size,), 1.0, dtype=v.dtype) + rho * rho
+    diag = torch.cat([diag.new_ones(1), diag[1:-1], diag.new_ones(1)])
+    shape = [1] * v.ndim
+    shape[axis] = size
+    return (diag.reshape(shape) * v - rho * (below + above)) / s
+
+
+def _kron_apply(v: Tensor, shape: tuple[int, int], factors: tuple[Tensor, Tensor, Tensor, Tensor]) -> Tensor:
+    """``(Qx ⊗ Qy) v`` for `N x k` ``v`` (node ``i Ny + j``), unit variance."""
+    (nx, ny), (rx, sx, ry, sy) = shape, factors
+    grid = v.reshape(nx, ny, -1)
+    return _axis_apply(_axis_apply(grid, 0, rx, sx), 1, ry, sy).reshape(nx * ny, -1)
+
+
+def _stencil(shape: tuple[int, int], factors: tuple[Tensor, Tensor, Tensor, Tensor], scale: Tensor,
+             weight: Tensor, fixed: Tensor) -> Tensor:
+    """`N x 9` entries of ``Q scale + diag(weight)`` at the offsets of
+    :data:`~torchshm.likelihood.lattice_plan.STENCIL`, with the rows and columns of the ``fixed``
+    nodes `N` replaced by the identity's (entries pointing off the grid are 0, never read)."""
+    from torchshm.likelihood.lattice_frontal import _axis_entries
+    from torchshm.likelihood.lattice_plan import STENCIL
+
+    (nx, ny), (rx, sx, ry, sy) = shape, factors
+    node = torch.arange(nx * ny)
+    i, j = node // ny, node % ny
+    cols = []
+    for di, dj in STENCIL:
+        k, l = i + di, j + dj
+        inside = (k >= 0) & (k < nx) & (l >= 0) & (l < ny)
+        k, l = k.clamp(0, nx - 1), l.clamp(0, ny - 1)
+        entry = _axis_entries(i, k, nx, rx, sx) * _axis_entries(j, l, ny, ry, sy) * scale
+        if (di, dj) == (0, 0):
+            entry = torch.where(fixed, 1.0, entry + weight)
+        else:
+            entry = torch.where(inside & ~fixed & ~fixed[k * ny + l], entry, 0.0)
+        cols.append(entry)
+    return torch.stack(cols, 1)
 
 
 def same_noise(noise: Tensor) -> list[list[int]]:
