@@ -15,8 +15,9 @@ Because each direction is Markov, the field on a regular grid is a Gaussian Mark
 whose precision is the Kronecker product of two tridiagonal matrices: on points of one regular
 grid (holes allowed) the density of Eq. (21) is exact and sparse, ``method="lattice"``
 (:mod:`torchshm.likelihood.lattice`), what ``method="auto"`` takes there. Off a grid, the dense
-covariance (this class's :meth:`__call__`) is used; the Vecchia and full-scale forms, which
-evaluate the kernel on Euclidean distances, are refused for it.
+covariance (this class's :meth:`__call__`) is used, and from
+:data:`~torchshm.likelihood.choice.VECCHIA_FROM` points the full-scale form (low rank +
+Vecchia), with its neighbours and block distances in the L1 distance (:attr:`l1`).
 """
 
 from __future__ import annotations

@@ -70,12 +70,13 @@ def low_rank(xo: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, pivots: 
     if pivots.numel() == 0:
         return xo.new_zeros(sigma_a.shape[0], xo.shape[0], 0)
     piv = xo[pivots]
-    corr = kern.correlation(distances(piv, piv), length[:, None, None])  # B x r x r
+    corr = kern.correlation(distances(piv, piv, l1=kern.l1), length[:, None, None])  # B x r x r
     chol, _ = cholesky_with_jitter(corr)
     step = max(1, CHUNK_BYTES // (8 * piv.shape[0] * sigma_a.shape[0]))
     parts = []
     for start in range(0, xo.shape[0], step):  # in chunks: the kernel's temporaries stay small
-        cross = kern.correlation(distances(xo[start : start + step], piv), length[:, None, None])  # B x c x r
+        cross = kern.correlation(distances(xo[start : start + step], piv, l1=kern.l1),
+                                 length[:, None, None])  # B x c x r
         parts.append(torch.linalg.solve_triangular(chol, cross.mT, upper=False).mT)
     return sigma_a[:, None, None] * torch.cat(parts, dim=1)
 
@@ -93,19 +94,19 @@ def setting(x: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: Ten
     """
     n = x.shape[0]
     points = x.detach().cpu().numpy()
-    order = neighbours.plan(points, fullscale_choice.NEIGHBOURS_RESOLVED if m is None else m).order
+    order = neighbours.plan(points, fullscale_choice.NEIGHBOURS_RESOLVED if m is None else m, kern.l1).order
     xo = x[torch.as_tensor(order, device=x.device)]
     cap = rank_for(n, fullscale_choice.RANK_MAX if rank is None else rank)
     if rank is not None and m is not None:  # as asked: the first pivots up to PIVOT_TOL
         with torch.no_grad():
             cand = xo[: fullscale_choice.CANDIDATES * cap]
-            corr = kern.correlation(distances(cand, cand), length.max().reshape(1, 1))
+            corr = kern.correlation(distances(cand, cand, l1=kern.l1), length.max().reshape(1, 1))
             pivots, _ = fullscale_choice.greedy_pivots(corr, cap)
         made = fullscale_choice.Choice(pivots, m, False, float("nan"))
     else:
         made = fullscale_choice.choose(xo, kern, sigma_a, length, noise, cap)
     used = neighbours_for(n, made.neighbours if m is None else m)
-    return neighbours.plan(points, used), made.pivots, made
+    return neighbours.plan(points, used, kern.l1), made.pivots, made
 
 
 def log_density(

@@ -83,7 +83,7 @@ def choose(xo: Tensor, kern: Kernel, sigma_a: Tensor, length: Tensor, noise: Ten
         if cap == 0:
             return Choice(xo.new_zeros(0, dtype=torch.int64), NEIGHBOURS_MAX, False, 1.0)
         cand = xo[: CANDIDATES * cap]
-        corr = kern.correlation(distances(cand, cand), length.min().reshape(1, 1))
+        corr = kern.correlation(distances(cand, cand, l1=kern.l1), length.min().reshape(1, 1))
         pivots, left = greedy_pivots(corr, cap, tol)
     worst = float(left.max())
     if worst <= tol:

@@ -32,7 +32,7 @@ from scipy.spatial.distance import cdist
 #: load cases lose different subsets has one per load case); a plan of 10^6 points with m = 10
 #: takes ~540 MB, of 10^5 points ~54 MB; the newest plan is always kept
 PLANS_BYTES = 2**31
-_PLANS: OrderedDict[tuple[bytes, int], Plan] = OrderedDict()
+_PLANS: OrderedDict[tuple[bytes, int, bool], Plan] = OrderedDict()
 
 
 @dataclass(frozen=True)
@@ -62,18 +62,20 @@ class Plan:
         return self.blocks.shape[1] - 1
 
 
-def plan(x: np.ndarray, m: int) -> Plan:
-    """The :class:`Plan` of `n x d` coordinates ``x`` [m] with ``m`` neighbours (cached)."""
+def plan(x: np.ndarray, m: int, l1: bool = False) -> Plan:
+    """The :class:`Plan` of `n x d` coordinates ``x`` [m] with ``m`` neighbours (cached); with
+    ``l1`` the neighbours and block distances are L1 (Manhattan) ones (a kernel of one
+    correlation per direction), else Euclidean."""
     x = np.ascontiguousarray(x, dtype=np.float64)
-    key = (hashlib.blake2b(x.tobytes() + str(x.shape).encode(), digest_size=16).digest(), int(m))
+    key = (hashlib.blake2b(x.tobytes() + str(x.shape).encode(), digest_size=16).digest(), int(m), bool(l1))
     found = _PLANS.get(key)
     if found is not None:
         _PLANS.move_to_end(key)
         return found
     order = coarse_to_fine(x)
-    previous = previous_neighbours(x[order], m)
+    previous = previous_neighbours(x[order], m, l1)
     blocks = np.concatenate([previous, np.arange(x.shape[0])[:, None]], axis=1)
-    made = Plan(order, blocks, lower_distances(x[order], blocks))
+    made = Plan(order, blocks, lower_distances(x[order], blocks, l1=l1))
     _PLANS[key] = made
     while len(_PLANS) > 1 and sum(p.nbytes for p in _PLANS.values()) > PLANS_BYTES:
         _PLANS.popitem(last=False)
@@ -106,26 +108,29 @@ def coarse_to_fine(x: np.ndarray, seed: int | None = 0) -> np.ndarray:
     return np.lexsort((tie, level))
 
 
-def lower_distances(x: np.ndarray, blocks: np.ndarray, chunk: int = 2**14) -> np.ndarray:
-    """`n x M(M-1)/2` distances [m] within each block (`n x M`) of ordered coordinates ``x``,
-    strictly lower triangle row by row (``numpy.tril_indices(M, -1)``); 0 for a missing slot."""
+def lower_distances(x: np.ndarray, blocks: np.ndarray, chunk: int = 2**14, l1: bool = False) -> np.ndarray:
+    """`n x M(M-1)/2` distances [m] (L1 with ``l1``, else Euclidean) within each block (`n x M`)
+    of ordered coordinates ``x``, strictly lower triangle row by row
+    (``numpy.tril_indices(M, -1)``); 0 for a missing slot."""
     n, size = blocks.shape
     rows, cols = np.tril_indices(size, -1)
     out = np.empty((n, rows.size))
     for start in range(0, n, chunk):
         part = blocks[start : start + chunk]
         pts = x[np.where(part >= 0, part, part[:, -1:])]
-        out[start : start + chunk] = np.sqrt(np.square(pts[:, rows] - pts[:, cols]).sum(-1))
+        gap = pts[:, rows] - pts[:, cols]
+        out[start : start + chunk] = np.abs(gap).sum(-1) if l1 else np.sqrt(np.square(gap).sum(-1))
     return out
 
 
-def previous_neighbours(x: np.ndarray, m: int) -> np.ndarray:
+def previous_neighbours(x: np.ndarray, m: int, l1: bool = False) -> np.ndarray:
     """`n x m` ranks of the ``m`` nearest earlier points of ordered coordinates ``x`` (`n x d`),
-    nearest first, ``-1`` where a point has fewer than ``m`` before it."""
+    nearest first (L1 distance with ``l1``, else Euclidean), ``-1`` where a point has fewer than
+    ``m`` before it."""
     n = x.shape[0]
     out = np.full((n, m), -1, dtype=np.int64)
     head = min(n, 4 * (m + 1))
-    dist = cdist(x[:head], x[:head])
+    dist = cdist(x[:head], x[:head], "cityblock" if l1 else "euclidean")
     for i in range(1, head):
         near = np.argsort(dist[i, :i], kind="stable")[:m]
         out[i, : near.size] = near
@@ -136,7 +141,7 @@ def previous_neighbours(x: np.ndarray, m: int) -> np.ndarray:
         todo = np.arange(a, b)
         k = min(b, 3 * m + 1)
         while todo.size:
-            _, idx = tree.query(x[todo], k=k)
+            _, idx = tree.query(x[todo], k=k, p=1 if l1 else 2)
             earlier = idx < todo[:, None]
             done = (earlier.sum(axis=1) >= m) | (k == b)
             first = np.argsort(~earlier[done], axis=1, kind="stable")[:, :m]

@@ -56,7 +56,8 @@ def log_density(
         resid: `B x L x n` residuals ``y - eta`` [µε].
         noise: `B x L x n` diagonal ``sigma_m**2 eta**2 + sigma_e**2`` [µε²].
         x: `n x d` coordinates [m].
-        kern: the discrepancy kernel (a function of the Euclidean distance).
+        kern: the discrepancy kernel (a function of the Euclidean distance, or of the L1 one
+            where ``kern.l1``: neighbours and block distances then are L1 ones).
         sigma_a: `B` scales [µε]; length: `B` correlation lengths [m].
         m: neighbours per point; ``None`` for :func:`neighbour_count`.
 
@@ -64,7 +65,7 @@ def log_density(
         `B` log densities; -inf where a block cannot be factorised even with jitter.
     """
     m = neighbour_count(kern) if m is None else m
-    plan = neighbours.plan(x.detach().cpu().numpy(), m)
+    plan = neighbours.plan(x.detach().cpu().numpy(), m, kern.l1)
     order = torch.as_tensor(plan.order, device=x.device)
     resid, noise = resid[..., order], noise[..., order]
     n_vec, n_loads, n = resid.shape
@@ -102,7 +103,7 @@ def sample(
         ValueError: if a block is not positive definite even with jitter.
     """
     m = neighbour_count(kern) if m is None else m
-    plan = neighbours.plan(x.detach().cpu().numpy(), m)
+    plan = neighbours.plan(x.detach().cpu().numpy(), m, kern.l1)
     n = x.shape[0]
     n_vec = sigma_a.shape[0]
     coef = np.zeros((n_vec, n, m + 1))  # -b_i, then sqrt(v_i)
