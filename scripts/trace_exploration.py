@@ -12,6 +12,10 @@ emulator's error causes there. For each round this script prints, beside the rul
   ``unsure.error_fields``, with the exploration's calibration): the mean of the drawn
   log joints plus ``κ`` times their sd still reaches the level;
 - ``any``: how many of them have at least one drawn log joint at or above the level;
+- ``second``: how many of them stay unresolved by an upper bound of the chance to reach the
+  level from the curvature of Eq. (21) along the first-order direction
+  (:func:`second_order_chance`: one more gradient per point, no draws), at the rule's
+  ``Φ(-κ)``;
 - ``flank``: the points the rule kept after its flank test (``beyond_posterior``), their
   distance ``m`` from the posterior's draws' mean in the draws' own covariance (all inferred
   parameters), and by how many nats their upper bound lies above the found mode's Gaussian tail
@@ -34,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from scipy.stats import norm
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -79,12 +84,13 @@ def main() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         post = torchshm.identify(problem, method="emulator", seed=args.seed, **args.options)
-    print("round   runs  rule  linear  drawn  any  flank  m (min/median/max)   above tail [nats]")
+    print("round   runs  rule  linear  drawn  any  second  flank  m (min/median/max)   above tail [nats]")
     for row, record in zip(post.diagnostics["rounds"], rows):
         m = record.get("m", (np.nan,) * 3)
         above = record.get("above", (np.nan,) * 3)
         print(f"{int(row['round']):5d} {int(row['n_emulator_runs']):6d} {int(row['n_unresolved']):5d} "
-              f"{record['linear']:7d} {record['drawn']:6d} {record['any']:4d} {record.get('flank', 0):6d}"
+              f"{record['linear']:7d} {record['drawn']:6d} {record['any']:4d} {record.get('second', 0):7d} "
+              f"{record.get('flank', 0):6d}"
               f"  {m[0]:5.1f} {m[1]:5.1f} {m[2]:5.1f}   {above[0]:6.1f} {above[1]:6.1f} {above[2]:6.1f}")
     print(f"converged {post.converged}, own CPU {time.process_time() - cpu:.1f} s (model and "
           f"this script's draws included)")
@@ -114,7 +120,55 @@ def _drawn(log_joint: EmulatedLogJoint, scan: exploration.Exploration, calibrati
     centre, spread = drawn.mean(0), drawn.std(0)
     out["drawn"] = int(np.sum(centre + exploration.KAPPA * spread >= level))
     out["any"] = int(np.sum((drawn >= level).any(0)))
+    chance = second_order_chance(inflated, scan.rows, level)
+    out["second"] = int(np.sum(chance >= norm.sf(exploration.KAPPA)))
     return out
+
+
+def second_order_chance(log_joint: EmulatedLogJoint, rows: np.ndarray, level: float,
+                        n_alpha: int = 4000) -> np.ndarray:
+    """`U` upper bounds of the chance that the log joint at rows `U x D` reaches ``level`` under
+    the emulator's error model (``log_joint`` with its inflation), from the curvature of Eq.
+    (21) along the first-order direction.
+
+    In the error model ``δ = sqrt(v) ⊙ (E z)``, ``z`` `N` standard normals, Eq. (21) with σm = 0
+    is a concave quadratic in ``z``: ``ℓ(z) = ℓ0 + aᵀz - ½ zᵀ H z``. With ``u = a / |a|``,
+    ``α = uᵀz`` and ``β = (H u)ᵀ z``, Cauchy-Schwarz in the ``H`` inner product gives ``zᵀ H z >=
+    β² / (uᵀ H u)``, so ``ℓ(z) <= ℓ0 + |a| α - β² / (2 uᵀ H u)``: a bound in two correlated
+    normals, whose upper tail is one quadrature. ``H u`` is the gradient's change along ``δ(u)``
+    (exact for a quadratic; with σm > 0 Eq. (21) is not quadratic and the bound is approximate).
+    """
+    mean, var, theta = log_joint.parts(rows)
+    prior = np.asarray(log_joint.problem.log_prior(rows), dtype=np.float64).reshape(-1)
+    basis = log_joint.emulator.error_basis  # m x N
+    valid = log_joint.valid.to(var.dtype)
+    sv = var.sqrt() * valid
+    value, grad = log_joint.gradient(mean, torch.zeros_like(var), theta)
+    a = (sv * torch.nan_to_num(grad)).flatten(1) @ basis  # U x N
+    size = a.norm(dim=-1).clamp_min(1e-300)
+    u = a / size[:, None]
+    step = (sv.flatten(1) * (u @ basis.mT)).reshape(mean.shape)
+    _, moved = log_joint.gradient(mean + step, torch.zeros_like(var), theta)
+    h = (sv * torch.nan_to_num(grad - moved)).flatten(1) @ basis
+    c = (u * h).sum(-1).clamp_min(0.0).numpy()
+    hn = h.norm(dim=-1).clamp_min(1e-300).numpy()
+    big = size.numpy()
+    gap = level - (np.where(np.isfinite(value), value, -np.inf) + prior)  # nats to climb
+    rho = np.clip(c / hn, -1.0, 1.0)
+    other = np.sqrt(np.clip(1.0 - rho**2, 0.0, None))
+    lo = np.minimum(gap / big, 8.0)
+    alpha = lo[:, None] + np.linspace(0.0, 12.0, n_alpha)[None, :]  # U x G, where a α >= gap
+    reach = 2.0 * c[:, None] * (big[:, None] * alpha - gap[:, None])  # β² must stay below it
+    half = np.sqrt(np.clip(reach, 0.0, None)) / hn[:, None]
+    centre = rho[:, None] * alpha
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inner = np.where(other[:, None] > 1e-9,
+                         norm.cdf((half - centre) / other[:, None]) - norm.cdf((-half - centre) / other[:, None]),
+                         (np.abs(centre) <= half).astype(float))
+    inner = np.where(reach >= 0.0, inner, 0.0)
+    inner = np.where(c[:, None] > 1e-12, inner, (reach >= 0.0).astype(float))  # no curvature: first order
+    chance = np.trapz(norm.pdf(alpha) * inner, alpha, axis=1)
+    return np.where(np.isfinite(gap), np.clip(chance, 0.0, 1.0), 0.0)
 
 
 def _tail(log_joint: EmulatedLogJoint, calibration: float, kept: exploration.Exploration,
