@@ -7,8 +7,11 @@ shell, where its tail crosses the exploration's level (``docs/benchmarks.md``, "
 exploration's open points in eight dimensions"). The variant ``whitened`` also leaves out a
 point whose Mahalanobis distance from the draws' mean, in the draws' covariance over all `D`
 inferred parameters, is below ``sqrt(chi2.ppf(1 - 1e-9, D))`` (6.9 for D = 4, 7.6 for D = 8:
-the radius outside which a Gaussian posterior holds 1e-9 of its mass). It is not in the
-library: this script patches it in for its own runs.
+the radius outside which a Gaussian posterior holds 1e-9 of its mass). It is not in
+the library: this script patches it in for its own runs. The variant ``second_order`` keeps
+the rule's flank test and reads the scan's open points again to second order
+(``torchshm.inference.adaptive.curvature``, ``explore.SECOND_ORDER``, off in the library),
+keeping those whose chance to reach the level is at least the rule's ``Φ(-κ)``.
 
 Each (case, variant) runs the emulator with its defaults, as ``scripts/bench_identification.py``
 does (one torch thread, scored against the case's reference), and prints one JSON row.
@@ -57,16 +60,17 @@ def whitened(scan: exploration.Exploration, draws: np.ndarray, columns: list[int
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="+", required=True, choices=list(KNOWN))
-    parser.add_argument("--variants", nargs="+", default=["rule", "whitened"], choices=["rule", "whitened"])
+    parser.add_argument("--variants", nargs="+", default=["rule", "whitened"], choices=["rule", "whitened", "second_order"])
     parser.add_argument("--options", type=json.loads, default={}, metavar="JSON",
                         help='keyword options of method="emulator" (default: none)')
     args = parser.parse_args()
     for case in args.cases:
         for variant in args.variants:
             method.beyond_posterior = whitened if variant == "whitened" else RULE
+            exploration.SECOND_ORDER = variant == "second_order"
             row = bench_identification.run_task((case, "emulator", False, 0, args.options))
             print("ROW", json.dumps({"variant": variant, **{k: row.get(k) for k in KEYS}}), flush=True)
-    method.beyond_posterior = RULE
+    method.beyond_posterior, exploration.SECOND_ORDER = RULE, False
 
 
 if __name__ == "__main__":

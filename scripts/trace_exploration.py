@@ -6,7 +6,8 @@ calls a Sobol point of the box unresolved when the upper bound ``μ + κ s`` of 
 joint reaches the level ``best - gap``, with ``s`` the first-order sd of the log-likelihood that the
 emulator's error causes there. For each round this script prints, beside the rule's own count:
 
-- ``linear``: the points unresolved by that rule, before the posterior's flank is taken out;
+- ``linear``: the points unresolved by the first-order bound, before the posterior's flank is
+  taken out;
 - ``drawn``: how many of them stay unresolved when ``s`` and the mean come from Eq. (21)
   evaluated exactly at :data:`N_DRAWS` joint draws of the emulator's error (the error model of
   ``unsure.error_fields``, with the exploration's calibration): the mean of the drawn
@@ -14,8 +15,9 @@ emulator's error causes there. For each round this script prints, beside the rul
 - ``any``: how many of them have at least one drawn log joint at or above the level;
 - ``second``: how many of them stay unresolved by an upper bound of the chance to reach the
   level from the curvature of Eq. (21) along the first-order direction
-  (:func:`second_order_chance`: one more gradient per point, no draws), at the rule's
-  ``Φ(-κ)``;
+  (``torchshm.inference.adaptive.curvature.reach_chance``, off in the rule: one more gradient
+  per point, no draws), at the rule's ``Φ(-κ)``; ``missed``: of
+  the points it rules out, those with a drawn log joint at the level;
 - ``flank``: the points the rule kept after its flank test (``beyond_posterior``), their
   distance ``m`` from the posterior's draws' mean in the draws' own covariance (all inferred
   parameters), and by how many nats their upper bound lies above the found mode's Gaussian tail
@@ -48,6 +50,7 @@ from benchmarks.cases import make_problem  # noqa: E402
 from benchmarks.holdout import KNOWN  # noqa: E402
 from torchshm.inference.adaptive import explore as exploration  # noqa: E402
 from torchshm.inference.adaptive import method  # noqa: E402
+from torchshm.inference.adaptive.curvature import reach_chance  # noqa: E402
 from torchshm.inference.adaptive.likelihood import EmulatedLogJoint  # noqa: E402
 from torchshm.inference.adaptive.unsure import error_fields  # noqa: E402
 
@@ -61,6 +64,8 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--options", type=json.loads, default={}, metavar="JSON",
                         help='keyword options of method="emulator" (default: none)')
+    parser.add_argument("--second-order", action="store_true",
+                        help="follow the second-order reading's open points (explore.SECOND_ORDER, off in the library)")
     args = parser.parse_args()
     torch.set_num_threads(1)
     rows: list[dict[str, float]] = []
@@ -68,10 +73,13 @@ def main() -> None:
     explore, flank = exploration.explore, exploration.beyond_posterior
 
     def traced_explore(log_joint, best, columns, plausible, rng, calibration=1.0, *extra):
-        scan = explore(log_joint, best, columns, plausible, rng, calibration, *extra)
+        scan = explore(log_joint, best, columns, plausible, rng, calibration, *extra)  # first order
         seen.update(log_joint=log_joint, calibration=calibration)
-        rows.append(_drawn(log_joint, scan, calibration, len(rows)))
-        return scan
+        record, keep = _drawn(log_joint, scan, calibration, len(rows))
+        rows.append(record)
+        if not args.second_order or keep is None:
+            return scan
+        return exploration.Exploration(scan.rows[keep], scan.z[keep], scan.margin, scan.top)
 
     def traced_flank(scan, draws, columns, *extra):
         kept = flank(scan, draws, columns, *extra)
@@ -84,12 +92,12 @@ def main() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         post = torchshm.identify(problem, method="emulator", seed=args.seed, **args.options)
-    print("round   runs  rule  linear  drawn  any  second  flank  m (min/median/max)   above tail [nats]")
+    print("round   runs  rule  linear  drawn  any  second  missed  flank  m (min/median/max)   above tail [nats]")
     for row, record in zip(post.diagnostics["rounds"], rows):
         m = record.get("m", (np.nan,) * 3)
         above = record.get("above", (np.nan,) * 3)
         print(f"{int(row['round']):5d} {int(row['n_emulator_runs']):6d} {int(row['n_unresolved']):5d} "
-              f"{record['linear']:7d} {record['drawn']:6d} {record['any']:4d} {record.get('second', 0):7d} "
+              f"{record['linear']:7d} {record['drawn']:6d} {record['any']:4d} {record.get('second', 0):7d} {record.get('missed', 0):7d} "
               f"{record.get('flank', 0):6d}"
               f"  {m[0]:5.1f} {m[1]:5.1f} {m[2]:5.1f}   {above[0]:6.1f} {above[1]:6.1f} {above[2]:6.1f}")
     print(f"converged {post.converged}, own CPU {time.process_time() - cpu:.1f} s (model and "
@@ -105,11 +113,12 @@ def whitened_distance(rows: np.ndarray, draws: np.ndarray) -> np.ndarray:
 
 
 def _drawn(log_joint: EmulatedLogJoint, scan: exploration.Exploration, calibration: float,
-           round_: int) -> dict[str, int]:
-    """The unresolved points (before the flank test) by the exact Eq. (21) at drawn errors."""
+           round_: int) -> tuple[dict[str, int], np.ndarray | None]:
+    """The unresolved points of the first-order bound (before the flank test) by the exact Eq.
+    (21) at drawn errors and by the second-order reading, and which of them the latter keeps."""
     out = {"linear": scan.n_unresolved, "drawn": 0, "any": 0}
     if not scan.n_unresolved:
-        return out
+        return out, None
     mean, sd = log_joint.value_and_sd(scan.rows)
     scale = max(1.0, calibration)
     # the rule's level, from z = (μ - level) / (c s) at every point (one value)
@@ -120,55 +129,12 @@ def _drawn(log_joint: EmulatedLogJoint, scan: exploration.Exploration, calibrati
     centre, spread = drawn.mean(0), drawn.std(0)
     out["drawn"] = int(np.sum(centre + exploration.KAPPA * spread >= level))
     out["any"] = int(np.sum((drawn >= level).any(0)))
-    chance = second_order_chance(inflated, scan.rows, level)
-    out["second"] = int(np.sum(chance >= norm.sf(exploration.KAPPA)))
-    return out
-
-
-def second_order_chance(log_joint: EmulatedLogJoint, rows: np.ndarray, level: float,
-                        n_alpha: int = 4000) -> np.ndarray:
-    """`U` upper bounds of the chance that the log joint at rows `U x D` reaches ``level`` under
-    the emulator's error model (``log_joint`` with its inflation), from the curvature of Eq.
-    (21) along the first-order direction.
-
-    In the error model ``δ = sqrt(v) ⊙ (E z)``, ``z`` `N` standard normals, Eq. (21) with σm = 0
-    is a concave quadratic in ``z``: ``ℓ(z) = ℓ0 + aᵀz - ½ zᵀ H z``. With ``u = a / |a|``,
-    ``α = uᵀz`` and ``β = (H u)ᵀ z``, Cauchy-Schwarz in the ``H`` inner product gives ``zᵀ H z >=
-    β² / (uᵀ H u)``, so ``ℓ(z) <= ℓ0 + |a| α - β² / (2 uᵀ H u)``: a bound in two correlated
-    normals, whose upper tail is one quadrature. ``H u`` is the gradient's change along ``δ(u)``
-    (exact for a quadratic; with σm > 0 Eq. (21) is not quadratic and the bound is approximate).
-    """
-    mean, var, theta = log_joint.parts(rows)
-    prior = np.asarray(log_joint.problem.log_prior(rows), dtype=np.float64).reshape(-1)
-    basis = log_joint.emulator.error_basis  # m x N
-    valid = log_joint.valid.to(var.dtype)
-    sv = var.sqrt() * valid
-    value, grad = log_joint.gradient(mean, torch.zeros_like(var), theta)
-    a = (sv * torch.nan_to_num(grad)).flatten(1) @ basis  # U x N
-    size = a.norm(dim=-1).clamp_min(1e-300)
-    u = a / size[:, None]
-    step = (sv.flatten(1) * (u @ basis.mT)).reshape(mean.shape)
-    _, moved = log_joint.gradient(mean + step, torch.zeros_like(var), theta)
-    h = (sv * torch.nan_to_num(grad - moved)).flatten(1) @ basis
-    c = (u * h).sum(-1).clamp_min(0.0).numpy()
-    hn = h.norm(dim=-1).clamp_min(1e-300).numpy()
-    big = size.numpy()
-    gap = level - (np.where(np.isfinite(value), value, -np.inf) + prior)  # nats to climb
-    rho = np.clip(c / hn, -1.0, 1.0)
-    other = np.sqrt(np.clip(1.0 - rho**2, 0.0, None))
-    lo = np.minimum(gap / big, 8.0)
-    alpha = lo[:, None] + np.linspace(0.0, 12.0, n_alpha)[None, :]  # U x G, where a α >= gap
-    reach = 2.0 * c[:, None] * (big[:, None] * alpha - gap[:, None])  # β² must stay below it
-    half = np.sqrt(np.clip(reach, 0.0, None)) / hn[:, None]
-    centre = rho[:, None] * alpha
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inner = np.where(other[:, None] > 1e-9,
-                         norm.cdf((half - centre) / other[:, None]) - norm.cdf((-half - centre) / other[:, None]),
-                         (np.abs(centre) <= half).astype(float))
-    inner = np.where(reach >= 0.0, inner, 0.0)
-    inner = np.where(c[:, None] > 1e-12, inner, (reach >= 0.0).astype(float))  # no curvature: first order
-    chance = np.trapz(norm.pdf(alpha) * inner, alpha, axis=1)
-    return np.where(np.isfinite(gap), np.clip(chance, 0.0, 1.0), 0.0)
+    chance = reach_chance(log_joint, scan.rows, level, calibration)
+    keep = chance >= norm.sf(exploration.KAPPA)
+    out["second"] = int(np.sum(keep))
+    # points the bound rules out although a drawn exact log joint reached the level
+    out["missed"] = int(np.sum(~keep & (drawn >= level).any(0)))
+    return out, keep
 
 
 def _tail(log_joint: EmulatedLogJoint, calibration: float, kept: exploration.Exploration,

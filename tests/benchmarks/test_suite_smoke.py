@@ -94,6 +94,7 @@ def test_trace_exploration_prints_the_rounds() -> None:
     assert lines[0].split()[:5] == ["round", "runs", "rule", "linear", "drawn"]
     rounds = [line.split() for line in lines[1:] if line.split() and line.split()[0].isdigit()]
     assert rounds and all(int(r[3]) >= int(r[4]) >= 0 for r in rounds)  # drawn: among the linear ones
+    assert lines[0].split()[6] == "second" and all(int(r[3]) >= int(r[6]) >= 0 for r in rounds)
     assert lines[-1].startswith("converged False")
 
 
@@ -113,9 +114,10 @@ def experiment_rows(script: str, *args: str) -> list[dict]:
 
 @pytest.mark.slow
 def test_flank_experiment_prints_its_row() -> None:
-    """``scripts/bench_flank.py``: the emulator with the whitened flank test patched in."""
-    rows = experiment_rows("bench_flank.py", "--variants", "whitened")
-    assert [r["variant"] for r in rows] == ["whitened"]
+    """``scripts/bench_flank.py``: the emulator with the whitened flank test, and with the
+    exploration read to second order, patched in."""
+    rows = experiment_rows("bench_flank.py", "--variants", "whitened", "second_order")
+    assert [r["variant"] for r in rows] == ["whitened", "second_order"]
     assert all(r["case"] == "edge2_p1" and r["runs"] > 0 for r in rows)
 
 
