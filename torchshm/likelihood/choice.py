@@ -41,7 +41,7 @@ DENSE_MEMORY_SHARE = 0.5
 #: what the full-scale form's warning adds for a kernel of the L1 distance (docs/likelihood.md)
 L1_NOTE = ("for kernel 'separable_exponential' (L1 distance, off a regular grid, too many points for "
            "the dense form) larger: measured at 2,500 points, sigma_a = 5 µε, sigma_e = 0.05 µε, 0.03-0.07 "
-           "nat at 2 pitches, 0.45-9.9 nat at 20-100 pitches, growing with the points; points of one "
+           "nat at 1 pitch, 0.45-9.9 nat at 10-50 pitches (not measured at more points); points of one "
            "regular grid get the exact lattice form")
 #: messages given once per process
 _SAID = {"vecchia": False, "fullscale": False}
@@ -147,9 +147,9 @@ def _lattice_choice(kern: Kernel, method: str, noise_positive: bool, dim: int, x
     if method not in ("auto", "lattice"):
         return None
     grid = lattice(x) if dim == 2 and x is not None else None
-    # without noise, two readings at one node make the density singular (dense: a failed Cholesky)
-    distinct = grid is not None and np.unique(grid.node).size == grid.node.size
-    if grid is not None and (noise_positive or distinct):
+    # without noise, two readings at one node make the density singular (dense: a failed Cholesky);
+    # the check only then (a sort of the nodes, per call)
+    if grid is not None and (noise_positive or np.unique(grid.node).size == grid.node.size):
         return "lattice"
     if method == "lattice":
         raise ValueError(f"method='lattice' needs n x 2 points on one regular grid (holes allowed), and "

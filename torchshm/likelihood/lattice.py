@@ -33,8 +33,9 @@ from scipy.signal import lfilter
 from torch import Tensor
 
 from torchshm.likelihood.constants import LOG_2PI
-from torchshm.likelihood.lattice_frontal import eliminate
+from torchshm.likelihood.lattice_frontal import _axis_entries, eliminate
 from torchshm.likelihood.lattice_order import Grid, lattice
+from torchshm.likelihood.lattice_plan import STENCIL
 
 __all__ = ["Grid", "lattice", "log_density", "same_noise", "sample"]
 
@@ -164,9 +165,6 @@ def _stencil(shape: tuple[int, int], factors: tuple[Tensor, Tensor, Tensor, Tens
     """`N x 9` entries of ``Q scale + diag(weight)`` at the offsets of
     :data:`~torchshm.likelihood.lattice_plan.STENCIL`, with the rows and columns of the ``fixed``
     nodes `N` replaced by the identity's (entries pointing off the grid are 0, never read)."""
-    from torchshm.likelihood.lattice_frontal import _axis_entries
-    from torchshm.likelihood.lattice_plan import STENCIL
-
     (nx, ny), (rx, sx, ry, sy) = shape, factors
     node = torch.arange(nx * ny)
     i, j = node // ny, node % ny
