@@ -13,8 +13,8 @@ and repeated points allowed): ``A`` `n x N` selects them. With ``D = diag(noise)
 all exact (Woodbury). Readings without noise (``sigma_e = 0`` and ``sigma_m = 0``, or a zero
 prediction with ``sigma_e = 0``) fix the field at their nodes `Z`; the density then integrates
 the other nodes `R` only (:func:`_log_density_fixed`): ``M_RR`` with identity rows at `Z`, and
-``b_R = c_R - Q_RZ r_Z``, ``c = Aᵀ D⁻¹ r`` over the noisy readings. ``log det Q`` is analytic (``log det Q1 = -(m - 1) log(1 - rho**2)`` at
-unit variance). ``log det M`` and ``bᵀ M⁻¹ b`` come from one multifrontal elimination over the
+``b_R = c_R - Q_RZ r_Z``, ``c = Aᵀ D⁻¹ r`` over the noisy readings. ``log det Q`` is analytic
+(``log det Q1 = -(m - 1) log(1 - rho**2)`` at unit variance). ``log det M`` and ``bᵀ M⁻¹ b`` come from one multifrontal elimination over the
 grid's nested dissection with dense batched blocks (:mod:`torchshm.likelihood.lattice_frontal`),
 once per distinct (``sigma_a``, ``l``, diagonal): load cases with the same diagonal share it.
 Plain torch on the CPU, float64, differentiable by autograd. The quadratic form is a difference

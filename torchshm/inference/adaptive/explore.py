@@ -20,8 +20,7 @@ posterior too) times the emulator's record at the last exploration runs
 Gaussian error exceeds once in 740): it might hold a mode. (A second-order reading of the
 same error model, :func:`.curvature.reach_chance`, is tighter far from the data but lost a mode
 of the suite's ``beam3_bimodal``: measured and left off, :data:`SECOND_ORDER`.) While any point
-is unresolved, one
-run of each batch goes to the unresolved points (:func:`exploration_batch`; once the rest of the
+is unresolved, one run of each batch goes to the unresolved points (:func:`exploration_batch`; once the rest of the
 stop rule holds, the batch holds only the runs it waits for, one per point up to the batch) and
 the stop rule does not hold, so a run that reaches its cap with an unresolved point says it did
 not converge.
@@ -53,10 +52,10 @@ N_SOBOL = 512
 KAPPA = 3.0
 #: read the first-order bound's open points again to second order (:mod:`.curvature`) and keep
 #: those whose chance to reach the level is at least ``Φ(-κ)``: off. Measured on 2026-12-02
-#: (``scripts/bench_flank.py --variants second_order``, ``docs/benchmarks.md``): 24-58 % fewer
-#: runs on six 4- to 6-parameter held-out cases, as accurate, but ``beam3_bimodal`` converged on
-#: one of its two modes (the error model is too sure far from the runs, and the first-order
-#: bound's slack is what kept that mode open)
+#: (``scripts/bench_flank.py --variants second_order``, ``docs/benchmarks.md``): 19-58 % fewer
+#: runs on five held-out cases of 3-6 parameters, as accurate, 155 -> 185 on ``seventh6_p4``,
+#: and ``beam3_bimodal`` converged on one of its two modes (the error model is too sure far
+#: from the runs, and the first-order bound's slack is what kept that mode open)
 SECOND_ORDER = False
 #: best Sobol points passed to the mode search as starts
 N_TOP = 2
