@@ -63,13 +63,16 @@ def main() -> None:
     parser.add_argument("--variants", nargs="+", default=["rule", "whitened"], choices=["rule", "whitened", "second_order"])
     parser.add_argument("--options", type=json.loads, default={}, metavar="JSON",
                         help='keyword options of method="emulator" (default: none)')
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="seeds of the runs (default: 0)")
     args = parser.parse_args()
     for case in args.cases:
-        for variant in args.variants:
-            method.beyond_posterior = whitened if variant == "whitened" else RULE
-            exploration.SECOND_ORDER = variant == "second_order"
-            row = bench_identification.run_task((case, "emulator", False, 0, args.options))
-            print("ROW", json.dumps({"variant": variant, **{k: row.get(k) for k in KEYS}}), flush=True)
+        for seed in args.seeds:
+            for variant in args.variants:
+                method.beyond_posterior = whitened if variant == "whitened" else RULE
+                exploration.SECOND_ORDER = variant == "second_order"
+                row = bench_identification.run_task((case, "emulator", False, seed, args.options))
+                print("ROW", json.dumps({"variant": variant, "seed": seed, **{k: row.get(k) for k in KEYS}}),
+                      flush=True)
     method.beyond_posterior, exploration.SECOND_ORDER = RULE, False
 
 

@@ -47,7 +47,7 @@ from benchmarks.methods import TimedModel, run_method  # noqa: E402
 REFS = ROOT / "benchmarks" / "references"
 DOC = ROOT / "docs" / "benchmarks.md"
 BEGIN, END = "<!-- suite:begin -->", "<!-- suite:end -->"
-#: each held-out set (``--holdout``, ``--fresh``, ``--third``, ``--edge``, ``--fifth``, ``--sixth``, ``--seventh``): its cases, and the markers and
+#: each held-out set (``--holdout``, ``--fresh``, ``--third``, ``--edge``, ``--fifth``, ``--sixth``, ``--seventh``, ``--eighth``): its cases, and the markers and
 #: title of its own section of docs/benchmarks.md
 SETS = {
     "holdout": (HELD_OUT["holdout"], ("<!-- holdout:begin -->", "<!-- holdout:end -->"),
@@ -64,6 +64,8 @@ SETS = {
               "A sixth held-out set: 2, 3, 4 and 6 parameters (`scripts/bench_identification.py --sixth`)"),
     "seventh": (HELD_OUT["seventh"], ("<!-- seventh:begin -->", "<!-- seventh:end -->"),
                 "A seventh held-out set: 2, 3, 4 and 6 parameters (`scripts/bench_identification.py --seventh`)"),
+    "eighth": (HELD_OUT["eighth"], ("<!-- eighth:begin -->", "<!-- eighth:end -->"),
+               "An eighth held-out set: 2, 3, 4 and 6 parameters (`scripts/bench_identification.py --eighth`)"),
 }
 METHODS = ("emulator", "vbmc", "gpry")
 #: the cases GPry runs on by default: the 2- and 4-parameter ones (see docs/benchmarks.md)
@@ -254,6 +256,8 @@ def main() -> None:
                         "SIXTH: 2, 3, 4 and 6 physical parameters); its own section of docs/benchmarks.md")
     parser.add_argument("--seventh", action="store_true", help="the seventh held-out set (benchmarks/holdout.py "
                         "SEVENTH: 2, 3, 4 and 6 physical parameters); its own section of docs/benchmarks.md")
+    parser.add_argument("--eighth", action="store_true", help="the eighth held-out set (benchmarks/holdout.py "
+                        "EIGHTH: 2, 3, 4 and 6 physical parameters); its own section of docs/benchmarks.md")
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=[*METHODS, "emcee"])
     parser.add_argument("--gpry-cases", nargs="+", default=GPRY_CASES, choices=list(KNOWN),
                         help="the cases GPry runs on (default: the 2- and 4-parameter ones; minutes of CPU each)")

@@ -19,6 +19,7 @@ Usage (from the repository root)::
     OMP_NUM_THREADS=1 python scripts/make_references.py --fifth  # the fifth: 2, 3, 4, 6 parameters
     OMP_NUM_THREADS=1 python scripts/make_references.py --sixth  # the sixth: the same, another seed
     OMP_NUM_THREADS=1 python scripts/make_references.py --seventh  # the seventh: the same, another seed
+    OMP_NUM_THREADS=1 python scripts/make_references.py --eighth  # the eighth: the same, another seed
 """
 
 from __future__ import annotations
@@ -127,7 +128,7 @@ def rehash(name: str) -> None:
 
 def _names(args: argparse.Namespace) -> list[str]:
     """The cases the command line names: a whole set (``--all``, ``--holdout``, ``--fresh``,
-    ``--third``, ``--edge``, ``--fifth``, ``--sixth``, ``--seventh``) or the ``--case`` ones."""
+    ``--third``, ``--edge``, ``--fifth``, ``--sixth``, ``--seventh``, ``--eighth``) or the ``--case`` ones."""
     if args.all:
         return list(CASES)
     chosen = [list(cases) for flag, cases in HELD_OUT.items() if getattr(args, flag)]
@@ -149,6 +150,8 @@ def main() -> None:
                         "2, 3, 4 and 6 physical parameters, drawn 2026-11-29 22:00 UTC)")
     parser.add_argument("--seventh", action="store_true", help="every case of the seventh held-out set (SEVENTH: "
                         "2, 3, 4 and 6 physical parameters, drawn 2026-12-01 21:25 UTC)")
+    parser.add_argument("--eighth", action="store_true", help="every case of the eighth held-out set (EIGHTH: "
+                        "2, 3, 4 and 6 physical parameters, drawn 2026-12-02 03:30 UTC)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--rehash", action="store_true", help="only renew the definition hash of existing "
                         "references whose problem is unchanged (same log joint at their MAP, to 1e-3 nats)")

@@ -94,19 +94,19 @@ def test_the_fourth_set_holds_one_and_seven_or_more_parameters() -> None:
             assert low < value < high
 
 
-def test_the_fifth_to_seventh_sets_are_new_draws_of_every_target_dimension() -> None:
-    from benchmarks.holdout import (FIFTH, FIFTH_SEED, HELD_OUT, KNOWN, N_FIFTH, N_SEVENTH, N_SIXTH, SEVENTH,
-                                    SEVENTH_SEED, SIXTH, SIXTH_SEED, generate_fifth, generate_seventh,
-                                    generate_sixth)
+def test_the_fifth_to_eighth_sets_are_new_draws_of_every_target_dimension() -> None:
+    from benchmarks.holdout import (EIGHTH, EIGHTH_SEED, FIFTH, FIFTH_SEED, HELD_OUT, KNOWN, N_EIGHTH, N_FIFTH,
+                                    N_SEVENTH, N_SIXTH, SEVENTH, SEVENTH_SEED, SIXTH, SIXTH_SEED, generate_eighth,
+                                    generate_fifth, generate_seventh, generate_sixth)
 
     earlier = set(CASES)
     for cases, again in ((FIFTH, generate_fifth(FIFTH_SEED, N_FIFTH)), (SIXTH, generate_sixth(SIXTH_SEED, N_SIXTH)),
-                         (SEVENTH, generate_seventh(SEVENTH_SEED, N_SEVENTH))):
+                         (SEVENTH, generate_seventh(SEVENTH_SEED, N_SEVENTH)), (EIGHTH, generate_eighth(EIGHTH_SEED, N_EIGHTH))):
         assert [(c.name, c.truth, c.kernel) for c in again.values()] == [(c.name, c.truth, c.kernel) for c in cases.values()]
         assert not set(cases) & earlier  # no name of an earlier set or of the suite
         earlier |= set(cases)
         assert {2, 3, 4, 6} <= {c.n_physical for c in cases.values()}  # a damage may add one
         assert set(cases) <= set(KNOWN)
-    assert HELD_OUT["seventh"] is SEVENTH
-    for case in SEVENTH.values():
+    assert HELD_OUT["seventh"] is SEVENTH and HELD_OUT["eighth"] is EIGHTH
+    for case in (*SEVENTH.values(), *EIGHTH.values()):
         _assert_valid(case)

@@ -87,8 +87,8 @@ def fit_surrogate(
     metadata = {
         "log_marginal_likelihood": log_ml, "standardize": standardize,
         "fit_seconds": time.perf_counter() - start,
-        "lengthscale": gp.covar_module.base_kernel.lengthscale.reshape(-1).tolist(),
-        "outputscale": float(gp.covar_module.outputscale),
+        "lengthscale": gp.scale_kernels()[0].base_kernel.lengthscale.reshape(-1).tolist(),
+        "outputscale": float(gp.scale_kernels()[0].outputscale),
         "noise": float(gp.likelihood.noise), "torch": str(torch.__version__),
         "gpytorch": str(gpytorch.__version__),
     }

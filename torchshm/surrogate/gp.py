@@ -35,8 +35,12 @@ from scipy.optimize import minimize
 from threadpoolctl import threadpool_limits
 from torch import Tensor
 
-#: names of the kernels the surrogate offers
-SURROGATE_KERNELS = ("rbf", "matern52")
+#: names of the kernels the surrogate offers: an ARD kernel of all inputs, or (``*_additive``)
+#: that kernel plus one kernel of each input alone, ``k(x, x') = s0 k0(x, x') + Σ_i s_i k_i(x_i, x_i')``
+#: (Duvenaud, Nickisch and Rasmussen 2011, "Additive Gaussian processes", first and last orders):
+#: a response that is close to a sum of the inputs' effects (e.g. two cracks far apart) is
+#: predicted where no run has that combination of inputs
+SURROGATE_KERNELS = ("rbf", "matern52", "rbf_additive", "matern52_additive")
 
 
 class SharedKernelGP(gpytorch.models.ExactGP):
@@ -57,10 +61,16 @@ class SharedKernelGP(gpytorch.models.ExactGP):
             noise_constraint=gpytorch.constraints.GreaterThan(min_noise))
         super().__init__(inputs, targets, likelihood)
         d = inputs.shape[-1]
-        base = (gpytorch.kernels.RBFKernel(ard_num_dims=d) if kernel == "rbf"
-                else gpytorch.kernels.MaternKernel(nu=2.5, ard_num_dims=d))
+
+        def base(**kwargs: object) -> gpytorch.kernels.Kernel:
+            return (gpytorch.kernels.RBFKernel(**kwargs) if kernel.startswith("rbf")
+                    else gpytorch.kernels.MaternKernel(nu=2.5, **kwargs))
+
         self.mean_module = gpytorch.means.ZeroMean()
-        self.covar_module = gpytorch.kernels.ScaleKernel(base)
+        self.covar_module = gpytorch.kernels.ScaleKernel(base(ard_num_dims=d))
+        if kernel.endswith("_additive"):
+            for i in range(d):
+                self.covar_module = self.covar_module + gpytorch.kernels.ScaleKernel(base(active_dims=(i,)))
         self.kernel, self.min_noise = kernel, min_noise
         self._factor: Tensor | None = None
         self._weights: Tensor | None = None
@@ -110,10 +120,19 @@ class SharedKernelGP(gpytorch.models.ExactGP):
         :meth:`fit`'s warm start of a GP on a grown design."""
         return {k: v.detach().clone() for k, v in self.state_dict().items()}
 
+    def scale_kernels(self) -> list[gpytorch.kernels.ScaleKernel]:
+        """The kernel's terms: the ARD kernel of all inputs first, then (additive kernels)
+        one per input."""
+        if isinstance(self.covar_module, gpytorch.kernels.ScaleKernel):
+            return [self.covar_module]
+        return list(self.covar_module.kernels)
+
     def _initialise(self, lengthscale: float) -> None:
-        self.covar_module.base_kernel.lengthscale = torch.full_like(
-            self.covar_module.base_kernel.lengthscale, lengthscale)
-        self.covar_module.outputscale = 1.0
+        terms = self.scale_kernels()
+        for i, term in enumerate(terms):
+            term.base_kernel.lengthscale = torch.full_like(term.base_kernel.lengthscale, lengthscale)
+            # the joint term holds most of the prior variance at the start, each input's a share
+            term.outputscale = 1.0 if len(terms) == 1 else (0.5 if i == 0 else 0.5 / (len(terms) - 1))
         self.likelihood.noise = max(1e-6, 10 * self.min_noise)
 
     def _optimise(self, max_iter: int) -> float:
