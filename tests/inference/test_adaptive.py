@@ -115,9 +115,12 @@ def test_batch_rule_spreads_the_points() -> None:
 def test_emulated_log_joint_is_exact_where_the_emulator_is_exact() -> None:
     problem = linear_gaussian_problem()
     theta = np.array([[1.0, -1.0], [-1.0, 1.0], [1.0, 1.0], [-1.0, -1.0], [0.0, 0.0]])
+    # the ARD kernel alone, whose long-lengthscale limit is exact for a linear model; with the
+    # default additive term, five runs let the marginal likelihood prefer the additive terms at
+    # lengthscale 1.25 (field off by 0.2 of 1.9 µε at these points, the log joint by 7-16 nats)
     emulator = FieldEmulator.fit(theta, np.asarray(problem.model_outputs(theta)),
                                  torch.as_tensor(problem.measurements.x),
-                                 torch.as_tensor(problem.measurements.loads))
+                                 torch.as_tensor(problem.measurements.loads), kernel="matern52")
     log_joint = EmulatedLogJoint(problem, emulator)
     at = np.array([[1.3, -0.7], [0.2, 0.4]])
     np.testing.assert_allclose(log_joint(at), problem.log_joint(at), atol=0.05)

@@ -85,7 +85,8 @@ def fit_field(
         outputs: `M x L x n` their strains [µε]; failed (non-finite) and repeated rows dropped.
         transform: keywords of :meth:`ResponseTransform.fit` (default :data:`PLAIN`), or a
             fitted transform to reuse as it is.
-        kernel: "rbf" or "matern52" (ARD, with an output scale).
+        kernel: "rbf" or "matern52" (ARD, with an output scale), or either with ``_additive``
+            (plus one kernel per input: :data:`~torchshm.surrogate.gp.SURROGATE_KERNELS`).
         min_noise: lower bound of the GP noise variance (standardised units).
         lengthscales: initial lengthscales of the marginal-likelihood restarts.
         max_iter: L-BFGS iterations per restart.

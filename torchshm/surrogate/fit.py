@@ -55,7 +55,8 @@ def fit_surrogate(
         theta_p: `N x P` design [model units], e.g. a :func:`grid_design`.
         store: an evaluation store or its path; None keeps nothing.
         n_jobs: local worker processes for the model runs (-1: every core).
-        kernel: "rbf" or "matern52" (ARD, with an output scale).
+        kernel: "rbf" or "matern52" (ARD, with an output scale), or either with ``_additive``
+            (plus one kernel per input: :data:`~torchshm.surrogate.gp.SURROGATE_KERNELS`).
         log_inputs: columns of θp the GP sees as log10, or ``"model"``.
         modulus: column of θp that is an elastic modulus (strains ∝ 1 / modulus), None, or
             ``"model"``.

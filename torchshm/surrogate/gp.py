@@ -49,7 +49,8 @@ class SharedKernelGP(gpytorch.models.ExactGP):
     Args:
         inputs: `N x d` training inputs (unit box).
         targets: `m x N` training targets, one row per output (standardised).
-        kernel: "rbf" (squared exponential) or "matern52", with a lengthscale per input.
+        kernel: one of :data:`SURROGATE_KERNELS`: "rbf" (squared exponential) or "matern52",
+            with a lengthscale per input, or either plus one kernel per input (``_additive``).
         min_noise: lower bound of the noise variance (targets are deterministic model runs).
     """
 

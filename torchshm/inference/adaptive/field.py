@@ -26,6 +26,8 @@ from torch import Tensor
 from torchshm.surrogate import ResponseTransform, Surrogate
 from torchshm.surrogate.field import fit_field
 
+#: the emulator's kernel by default (``emulator_kernel`` of the method; ``docs/surrogate.md``)
+DEFAULT_KERNEL = "matern52_additive"
 #: transform keywords for a model that declares no structure
 PLAIN_TRANSFORM: dict[str, Any] = {"log_inputs": (), "modulus": None, "relative_to_modulus": ()}
 
@@ -71,7 +73,7 @@ class FieldEmulator:
 
     @classmethod
     def fit(cls, theta_p: np.ndarray, outputs: np.ndarray, x: Tensor, loads: Tensor,
-            transform: dict[str, Any] | None = None, kernel: str = "matern52",
+            transform: dict[str, Any] | None = None, kernel: str = DEFAULT_KERNEL,
             previous: FieldEmulator | None = None) -> FieldEmulator:
         """Fit to runs ``theta_p`` `N x P` with measured strains ``outputs`` `N x L x n` [µε].
 
