@@ -43,6 +43,18 @@ from torch import Tensor
 SURROGATE_KERNELS = ("rbf", "matern52", "rbf_additive", "matern52_additive")
 
 
+def widest_gap(values: Tensor) -> float:
+    """The widest gap between successive distinct values of one input `N` (unit-box units).
+
+    The lower bound of an additive term's lengthscale: a kernel of one input alone cannot
+    resolve that input's effect between the values the runs have, and a term shorter than their
+    gaps interpolates them with bumps (on a grid design of 4 values per input the marginal
+    likelihood preferred a lengthscale of 0.03 and the field between the runs was off by 40 %).
+    """
+    distinct = torch.unique(values.detach().reshape(-1))
+    return float((distinct[1:] - distinct[:-1]).max()) if distinct.numel() > 1 else 0.0
+
+
 class SharedKernelGP(gpytorch.models.ExactGP):
     """Zero-mean exact GP with `m` outputs that share one ARD kernel and one noise.
 
@@ -69,9 +81,13 @@ class SharedKernelGP(gpytorch.models.ExactGP):
 
         self.mean_module = gpytorch.means.ZeroMean()
         self.covar_module = gpytorch.kernels.ScaleKernel(base(ard_num_dims=d))
+        self.floors: list[float] = [0.0]
         if kernel.endswith("_additive"):
             for i in range(d):
-                self.covar_module = self.covar_module + gpytorch.kernels.ScaleKernel(base(active_dims=(i,)))
+                floor = widest_gap(inputs[..., i])
+                self.floors.append(floor)
+                term = base(active_dims=(i,), lengthscale_constraint=gpytorch.constraints.GreaterThan(floor))
+                self.covar_module = self.covar_module + gpytorch.kernels.ScaleKernel(term)
         self.kernel, self.min_noise = kernel, min_noise
         self._factor: Tensor | None = None
         self._weights: Tensor | None = None
@@ -131,7 +147,8 @@ class SharedKernelGP(gpytorch.models.ExactGP):
     def _initialise(self, lengthscale: float) -> None:
         terms = self.scale_kernels()
         for i, term in enumerate(terms):
-            term.base_kernel.lengthscale = torch.full_like(term.base_kernel.lengthscale, lengthscale)
+            start = max(lengthscale, 1.5 * self.floors[i]) if i < len(self.floors) else lengthscale
+            term.base_kernel.lengthscale = torch.full_like(term.base_kernel.lengthscale, start)
             # the joint term holds most of the prior variance at the start, each input's a share
             term.outputscale = 1.0 if len(terms) == 1 else (0.5 if i == 0 else 0.5 / (len(terms) - 1))
         self.likelihood.noise = max(1e-6, 10 * self.min_noise)
