@@ -194,3 +194,16 @@ def test_additive_terms_do_not_interpolate_a_grid_with_bumps() -> None:
     assert fit.gp.floors == pytest.approx([0.0, 1.0 / 3.0, 1.0 / 3.0])
     assert all(float(t.base_kernel.lengthscale.min()) >= 1.0 / 3.0 - 1e-9 for t in fit.gp.scale_kernels()[1:])
     assert errors["matern52_additive"] < 3.0 * errors["matern52"]
+
+
+def test_a_warm_start_keeps_the_new_designs_floors() -> None:
+    # the earlier fit's state holds its own bounds (a wider gap with fewer runs); a warm start
+    # takes its values only, so a start at the new floor is allowed
+    coarse = torch.tensor([[0.0], [0.6], [1.0]], dtype=torch.float64)
+    fine = torch.tensor([[0.0], [0.3], [0.6], [0.8], [1.0]], dtype=torch.float64)
+    first = SharedKernelGP(coarse, torch.sin(3.0 * coarse).mT, kernel="matern52_additive")
+    first.fit(lengthscales=(0.5,), max_iter=20)
+    second = SharedKernelGP(fine, torch.sin(3.0 * fine).mT, kernel="matern52_additive")
+    second.fit(lengthscales=(0.2,), max_iter=20, warm=first.hyperparameters())
+    assert second.floors[1] == pytest.approx(0.3)
+    assert float(second.scale_kernels()[1].base_kernel.raw_lengthscale_constraint.lower_bound) == pytest.approx(0.3)

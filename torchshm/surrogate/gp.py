@@ -119,8 +119,9 @@ class SharedKernelGP(gpytorch.models.ExactGP):
         best, best_state = -math.inf, None
         starts: list[float | dict[str, Tensor]] = ([warm] if warm else []) + list(lengthscales)
         for start in starts:
-            if isinstance(start, dict):
-                self.load_state_dict(start, strict=False)
+            if isinstance(start, dict):  # the values, not the earlier design's bounds
+                self.load_state_dict({k: v for k, v in start.items() if "_constraint." not in k},
+                                     strict=False)
             else:
                 self._initialise(start)
             value = self._optimise(max_iter)
