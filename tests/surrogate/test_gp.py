@@ -7,6 +7,7 @@ import pytest
 import torch
 
 from torchshm.surrogate import SharedKernelGP
+from torchshm.surrogate.gp import widest_gap
 
 
 @pytest.fixture
@@ -199,11 +200,21 @@ def test_additive_terms_do_not_interpolate_a_grid_with_bumps() -> None:
 def test_a_warm_start_keeps_the_new_designs_floors() -> None:
     # the earlier fit's state holds its own bounds (a wider gap with fewer runs); a warm start
     # takes its values only, so a start at the new floor is allowed
-    coarse = torch.tensor([[0.0], [0.6], [1.0]], dtype=torch.float64)
-    fine = torch.tensor([[0.0], [0.3], [0.6], [0.8], [1.0]], dtype=torch.float64)
+    coarse = torch.tensor([[0.0], [0.6], [0.6], [1.0]], dtype=torch.float64)  # a value repeated
+    fine = torch.tensor([[0.0], [0.3], [0.3], [0.6], [0.8], [1.0]], dtype=torch.float64)
     first = SharedKernelGP(coarse, torch.sin(3.0 * coarse).mT, kernel="matern52_additive")
     first.fit(lengthscales=(0.5,), max_iter=20)
     second = SharedKernelGP(fine, torch.sin(3.0 * fine).mT, kernel="matern52_additive")
     second.fit(lengthscales=(0.2,), max_iter=20, warm=first.hyperparameters())
     assert second.floors[1] == pytest.approx(0.3)
     assert float(second.scale_kernels()[1].base_kernel.raw_lengthscale_constraint.lower_bound) == pytest.approx(0.3)
+
+
+def test_distinct_run_values_leave_the_additive_terms_unbounded() -> None:
+    # every run at its own value (a Latin hypercube, posterior draws): no floor; a repeated
+    # value (a grid): the widest gap
+    assert widest_gap(torch.tensor([0.0, 0.1, 0.7, 1.0], dtype=torch.float64)) == 0.0
+    assert widest_gap(torch.tensor([0.0, 0.1, 0.1, 0.7, 1.0], dtype=torch.float64)) == pytest.approx(0.6)
+    x = torch.rand(12, 2, generator=torch.Generator().manual_seed(3), dtype=torch.float64)
+    gp = SharedKernelGP(x, torch.sin(3.0 * x[:, :1]).mT, kernel="matern52_additive")
+    assert gp.floors == [0.0, 0.0, 0.0]
