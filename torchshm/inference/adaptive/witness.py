@@ -39,7 +39,7 @@ N_DRAWS = 300
 
 
 def tv_witness(log_joint: EmulatedLogJoint, draws: np.ndarray, rng: np.random.Generator,
-               n_fields: int = N_FIELDS) -> float:
+               n_fields: int = N_FIELDS, scale: float = 1.0) -> float:
     """Expected total variation between the posterior and the one of an emulator draw.
 
     Args:
@@ -48,6 +48,8 @@ def tv_witness(log_joint: EmulatedLogJoint, draws: np.ndarray, rng: np.random.Ge
             first :data:`N_DRAWS` are used).
         rng: generator of the emulator draws.
         n_fields: number of joint draws of the log-likelihood error.
+        scale: factor on the error's variance (:attr:`.validation.BatchCheck.witness_scale`:
+            below 1 where the last batch's errors were far below the emulator's sd).
 
     Returns:
         The witness in [0, 1] (module docstring); 1 when it cannot be computed.
@@ -63,7 +65,7 @@ def tv_witness(log_joint: EmulatedLogJoint, draws: np.ndarray, rng: np.random.Ge
     z = torch.as_tensor(rng.standard_normal((rows.shape[0], int(n_fields))))
     # the outputs' errors independent (as the emulator has them) and correlated as the runs'
     # fields are (as they come out, :meth:`EmulatedLogJoint.error_variance`): the larger TV
-    return max(_mean_tv(corr * (u @ u.mT), z) for u in (g, g @ emulator.error_basis))
+    return max(_mean_tv(scale * corr * (u @ u.mT), z) for u in (g, g @ emulator.error_basis))
 
 
 def _mean_tv(cov: torch.Tensor, z: torch.Tensor) -> float:
