@@ -253,6 +253,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                    "emulator_loglik_sd": float(sd.mean()), "evidence_sd": evidence_sd,
                    "emulator_inflation": inflation,
                    "check_loglik_error": check.max_error if check is not None else np.nan,
+                   "witness_scale": check.witness_scale if check is not None else np.nan,
                    "settled": float(settled), "extrapolating": float(extrapolating),
                    "n_unresolved": float(scan.n_unresolved), "explore_margin": scan.margin,
                    "explore_calibration": far_calibration, "beyond_runs": float(beyond.mean()),
