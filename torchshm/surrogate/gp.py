@@ -158,7 +158,7 @@ class SharedKernelGP(gpytorch.models.ExactGP):
     def _initialise(self, lengthscale: float) -> None:
         terms = self.scale_kernels()
         for i, term in enumerate(terms):
-            start = max(lengthscale, 1.5 * self.floors[i]) if i < len(self.floors) else lengthscale
+            start = max(lengthscale, 1.5 * self.floors[i])  # floors: one per term (0: none)
             term.base_kernel.lengthscale = torch.full_like(term.base_kernel.lengthscale, start)
             # the joint term holds most of the prior variance at the start, each input's a share
             term.outputscale = 1.0 if len(terms) == 1 else (0.5 if i == 0 else 0.5 / (len(terms) - 1))
