@@ -63,9 +63,6 @@ if TYPE_CHECKING:
     from torchshm.problem import Problem
 
 logger = logging.getLogger(__name__)
-#: the witness scaled by the last batch's errors (BatchCheck.witness_scale): under test on the
-#: 36 cases, off until measured
-WITNESS_SCALED = False
 
 
 def run_emulator(
@@ -216,7 +213,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             share, sd = log_joint.emulator_share(draws)
             # or the TV the emulator's own uncertainty allows, once a new batch tested it
             witness = (tv_witness(log_joint, draws, np.random.default_rng([seed, 37, r]),
-                                  scale=check.witness_scale if WITNESS_SCALED else 1.0)
+                                  scale=check.witness_scale)
                        if check is not None and tv >= tv_tol else np.nan)
             calm = calm + 1 if tv < tv_tol or witness < tv_tol else 0
             # a batch of exploration runs alone (below) leaves the last posterior check standing
