@@ -1,7 +1,7 @@
 """Each new batch of model runs checks the emulator before it learns from them.
 
 The batch was chosen among posterior draws of the emulated likelihood, so it is a fair test of
-the emulator where the posterior lies. Two measures, both on runs the emulator has not seen:
+the emulator where the posterior lies. Three measures, all on runs the emulator has not seen:
 
 - **calibration** ``c``: the mean of ``(y_run - m)² / (v + 1e-4 s²)`` over the runs' valid
   readings (the squared standardised error of the emulator's mean ``m`` against its own
