@@ -212,8 +212,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             mmtv = sampling.marginal_tv(samples, prev_samples) if prev_samples is not None else 1.0
             share, sd = log_joint.emulator_share(draws)
             # or the TV the emulator's own uncertainty allows, once a new batch tested it
-            witness = (tv_witness(log_joint, draws, np.random.default_rng([seed, 37, r]),
-                                  scale=check.witness_scale)
+            witness = (tv_witness(log_joint, draws, np.random.default_rng([seed, 37, r]), scale=check.witness_scale)
                        if check is not None and tv >= tv_tol else np.nan)
             calm = calm + 1 if tv < tv_tol or witness < tv_tol else 0
             # a batch of exploration runs alone (below) leaves the last posterior check standing
@@ -248,8 +247,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                    float(runs.theta_p.shape[0]), "tv": tv, "tv_witness": witness, "mmtv": mmtv,
                    "n_modes": float(n_modes), "emulator_share": float(share.mean()), "emulator_share_max": float(share.max()),
                    "emulator_loglik_sd": float(sd.mean()), "evidence_sd": evidence_sd,
-                   "emulator_inflation": inflation,
-                   "check_loglik_error": check.max_error if check is not None else np.nan,
+                   "emulator_inflation": inflation, "check_loglik_error": check.max_error if check is not None else np.nan,
                    "witness_scale": check.witness_scale if check is not None else np.nan,
                    "settled": float(settled), "extrapolating": float(extrapolating),
                    "n_unresolved": float(scan.n_unresolved), "explore_margin": scan.margin,
