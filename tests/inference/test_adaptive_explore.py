@@ -118,3 +118,47 @@ def test_points_on_the_posterior_flank_are_not_unresolved() -> None:
     assert kept.z.tolist() == [-0.5] and kept.margin == -0.5
     # the third column is not a physical parameter: distance ignores it
     assert beyond_posterior(scan, draws, [0]).n_unresolved == 1
+
+
+def test_points_that_could_hide_little_mass_are_resolved() -> None:
+    """The mass rule against its closed form: a Gaussian posterior in two physical parameters
+    and one other (peak 0, volume (2π)^(3/2) |Σ|^(1/2)), cells of log volume ``c`` with upper
+    bounds ``u``, the other parameter's box of width 2: a point weighs
+    ``2 exp(c + u) / V · (1 + d²)``; the lightest are dropped while their sum stays below the
+    tolerance, and a secondary mode (``u = +inf``) never is. A point whose upper bound is
+    higher at another value of the third parameter than at the scan's weighs that much more."""
+    from torchshm.inference.adaptive.explore import Exploration, negligible_mass
+
+    class Flat:  # the upper bound is the scan's at every third-parameter value but one
+        def __init__(self, bump: float) -> None:
+            self.bump = bump
+
+        def value_and_sd(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            mean = np.full(rows.shape[0], -1e3)
+            mean[np.isclose(rows[:, 2], 0.8)] = self.bump  # the grid's fifth value of (-1, 1)
+            return mean, np.zeros(rows.shape[0])
+
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=200_000)
+    draws = np.column_stack([a, rng.normal(size=a.size), 0.6 * a + 0.8 * rng.normal(size=a.size)])
+    rows = np.array([[3.0, 4.0, 0.0], [0.0, 6.0, 0.0], [8.0, 0.0, 0.0], [1.0, 1.0, 0.0]])
+    cell, upper = np.log(1e-3), np.array([-2.0, -4.0, -1.0, np.inf])
+    box = np.array([[-10.0, 10.0], [-10.0, 10.0], [-1.0, 1.0]])
+    scan = Exploration(rows, np.zeros(4), 0.0, rows[:1], upper, cell, 0.0, box)
+    volume = (2 * np.pi) ** 1.5 * 0.8  # |Σ| = 1 - 0.6²
+    weight = 2 * np.exp(cell + upper[:3]) / volume * (1 + np.array([25.0, 36.0, 64.0]))
+    assert weight[1] < weight[0] < weight[2]
+    for tol, left in [(0.9 * weight[1], 4), (1.1 * weight[1], 3),
+                      (1.01 * (weight[0] + weight[1]), 2), (1.01 * weight.sum(), 1)]:
+        kept = negligible_mass(scan, Flat(-1e3), draws, [0, 1], tol)
+        assert kept.n_unresolved == left, (tol, kept.n_unresolved)  # within 1 % of the weights
+        assert np.isinf(kept.upper).any() and len(kept.z) == left
+    # the second point 1 nat higher at another value of the third parameter: e times heavier,
+    # so the tolerance that dropped it (above) keeps it
+    kept = negligible_mass(scan, Flat(upper[1] + 1.0), draws, [0, 1], 1.1 * weight[1])
+    assert kept.n_unresolved == 4
+    assert negligible_mass(scan, Flat(upper[1] + 1.0), draws, [0, 1], 1.1 * np.e * weight[1]
+                           ).n_unresolved == 3
+    # without the upper bounds (a scan built by hand) nothing is dropped
+    assert negligible_mass(Exploration(rows, np.zeros(4), 0.0, rows[:1]), Flat(-1e3), draws,
+                           [0, 1], 1.0).n_unresolved == 4
