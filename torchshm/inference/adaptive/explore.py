@@ -31,7 +31,7 @@ mode (:func:`beyond_posterior`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -62,12 +62,6 @@ N_TOP = 2
 #: an unresolved point this close to a posterior draw (Euclidean, in the draws' sds of the
 #: physical parameters) is the found posterior's own flank, not a separate mode
 NEAR = 3.0
-#: the unresolved points' bound on the hidden posterior mass, weighted by its reach
-#: (:func:`negligible_mass`), below which they no longer hold the stop rule
-MASS_TOL = 0.01
-#: values per parameter other than the physical ones on which :func:`negligible_mass` takes an
-#: unresolved point's upper bound
-NUISANCE_GRID = 5
 
 
 @dataclass(frozen=True)
@@ -81,29 +75,12 @@ class Exploration:
         margin: the largest such distance over all the points outside the posterior.
         top: `T x D` the :data:`N_TOP` points of highest emulated log joint (starts of the
             mode search: a mode that an exploration run revealed is searched from there).
-        upper: `U` the upper bound ``μ + κ s`` of the emulated log joint at the rows [nats]
-            (+inf for a secondary mode of :func:`with_modes`, which is not a Sobol cell); None
-            where unknown.
-        cell: log volume of one Sobol cell of the box in the physical parameters' units.
-        peak: the emulated log joint of the best walker [nats].
-        box: `D x 2` the plausible box (None where unknown).
-        calibration: the factor >= 1 the sds of ``upper`` were multiplied by.
     """
 
     rows: np.ndarray
     z: np.ndarray
     margin: float
     top: np.ndarray
-    upper: np.ndarray | None = None
-    cell: float = float("nan")
-    peak: float = float("nan")
-    box: np.ndarray | None = None
-    calibration: float = 1.0
-
-    def subset(self, keep: np.ndarray) -> Exploration:
-        """The same scan with only the unresolved points ``keep`` (mask or index)."""
-        upper = None if self.upper is None else self.upper[keep]
-        return replace(self, rows=self.rows[keep], z=self.z[keep], upper=upper)
 
     @property
     def n_unresolved(self) -> int:
@@ -151,9 +128,7 @@ def explore(log_joint: EmulatedLogJoint, best: np.ndarray, columns: list[int],
         chance = reach_chance(log_joint, rows[open_], level, calibration)
         open_ = open_[chance >= norm.sf(kappa)]
     open_ = open_[np.argsort(-z[open_])]
-    cell = float(np.log(np.prod(box[:, 1] - box[:, 0]) / unit.shape[0]))
-    return Exploration(rows[open_], z[open_], margin, top, mean[open_] + kappa * sd[open_], cell,
-                       level + straggler_gap(best.shape[0]), plausible, max(1.0, calibration))
+    return Exploration(rows[open_], z[open_], margin, top)
 
 
 def with_modes(scan: Exploration, log_joint: EmulatedLogJoint, modes: np.ndarray,
@@ -172,11 +147,9 @@ def with_modes(scan: Exploration, log_joint: EmulatedLogJoint, modes: np.ndarray
     open_ = np.flatnonzero((z >= -kappa) & (sd > sd_tol))
     if not open_.size:
         return scan
-    upper = None if scan.upper is None else np.concatenate([np.full(open_.size, np.inf),
-                                                            scan.upper])
-    return replace(scan, rows=np.concatenate([modes[1:][open_], scan.rows]),
-                   z=np.concatenate([z[open_], scan.z]), margin=max(scan.margin, float(z.max())),
-                   upper=upper)
+    return Exploration(np.concatenate([modes[1:][open_], scan.rows]),
+                       np.concatenate([z[open_], scan.z]), max(scan.margin, float(z.max())),
+                       scan.top)
 
 
 def beyond_posterior(scan: Exploration, draws: np.ndarray, columns: list[int],
@@ -198,59 +171,8 @@ def beyond_posterior(scan: Exploration, draws: np.ndarray, columns: list[int],
     scale = np.maximum(draws[:, columns].std(0), 1e-12)
     points = torch.as_tensor(scan.rows[:, columns] / scale)
     near = torch.cdist(points, torch.as_tensor(draws[:, columns] / scale)).min(1).values
-    return scan.subset((near > radius).numpy())
-
-
-def negligible_mass(scan: Exploration, log_joint: EmulatedLogJoint, draws: np.ndarray,
-                    columns: list[int], tol: float = MASS_TOL) -> Exploration:
-    """``scan`` without the unresolved points whose Sobol cells together could hide less than
-    ``tol`` of the posterior, weighted by how far they would move it.
-
-    Each point stands for a cell of the box (volume ``exp(cell)`` in the P physical parameters
-    ``columns``) times the whole plausible box of the other parameters (volume ``B``), over
-    which its emulated log joint is taken at the largest upper bound ``u = μ + κ s`` on a grid
-    of :data:`NUISANCE_GRID` values per other parameter (the scan itself holds them at the best
-    walker's: a region the found posterior's σa or l rules out may be reached with others).
-    Its mass relative to the found posterior (one mode, draws `S x D`) is bounded by
-    ``f = B exp(cell + u - peak) / V``, with ``V = (2π)^(D/2) |Σ|^(1/2)`` the posterior's
-    Gaussian volume from the draws' covariance ``Σ``. Mass ``f`` at a Mahalanobis distance
-    ``d`` (physical parameters) moves the posterior mean by about ``f d`` sds and its variance
-    by ``f d²``, so the points are weighed by ``f (1 + d²)``; the lightest ones are dropped
-    while their sum stays below ``tol``.
-    """
-    columns = list(columns)
-    if (scan.n_unresolved == 0 or scan.upper is None or scan.box is None or not columns
-            or draws.shape[0] <= draws.shape[1] + 1):
-        return scan
-    cov = np.atleast_2d(np.cov(draws, rowvar=False))
-    scale = np.sqrt(np.maximum(np.diag(cov), 1e-300))
-    sign, logdet = np.linalg.slogdet(cov / np.outer(scale, scale))
-    if sign <= 0:
-        return scan
-    dim = draws.shape[1]
-    others = [j for j in range(dim) if j not in columns]
-    widths = scan.box[others, 1] - scan.box[others, 0]
-    log_found = scan.peak + 0.5 * (dim * np.log(2 * np.pi) + logdet) + np.log(scale).sum()
-    log_f = scan.cell + np.log(widths).sum() + scan.upper - log_found  # at the scan's values
-    centred = (scan.rows[:, columns] - draws[:, columns].mean(0)) / scale[columns]
-    marginal = np.linalg.pinv(cov[np.ix_(columns, columns)] / np.outer(scale[columns], scale[columns]))
-    reach = 1.0 + np.einsum("ui,ij,uj->u", centred, marginal, centred)
-    weight = np.exp(np.minimum(log_f, 700.0)) * reach
-    maybe = np.flatnonzero(np.isfinite(weight) & (weight < tol))  # the others stay anyway
-    if maybe.size and others:
-        k = NUISANCE_GRID if NUISANCE_GRID ** len(others) <= 125 else 3  # at most 3 per axis past 3
-        grid = np.stack(np.meshgrid(*[lo + (np.arange(k) + 0.5) / k * (hi - lo)
-                                      for lo, hi in scan.box[others]], indexing="ij"), -1)
-        grid = grid.reshape(-1, len(others))
-        rows = np.repeat(scan.rows[maybe], grid.shape[0], axis=0)
-        rows[:, others] = np.tile(grid, (maybe.size, 1))
-        mean, sd = log_joint.value_and_sd(rows)
-        upper = (mean + KAPPA * scan.calibration * sd).reshape(maybe.size, -1).max(1)
-        weight[maybe] *= np.exp(np.minimum(np.maximum(upper - scan.upper[maybe], 0.0), 700.0))
-    order = np.argsort(weight)
-    light = np.zeros(weight.shape[0], dtype=bool)
-    light[order[np.cumsum(weight[order]) < tol]] = True
-    return scan.subset(~light)
+    keep = (near > radius).numpy()
+    return Exploration(scan.rows[keep], scan.z[keep], scan.margin, scan.top)
 
 
 def exploration_batch(scan: Exploration, emulator: FieldEmulator, theta_p: np.ndarray, k: int,

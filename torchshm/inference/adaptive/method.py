@@ -45,7 +45,7 @@ from torchshm.inference.adaptive import sampling
 from torchshm.inference.adaptive.acquisition import choose_batch, design
 from torchshm.inference.adaptive.budget import default_cap, default_n_initial, positive  # noqa: F401
 from torchshm.inference.adaptive.explore import (beyond_posterior, explore, explore_calibration,
-                                                  exploration_batch, negligible_mass, with_modes)
+                                                  exploration_batch, with_modes)
 from torchshm.inference.adaptive.field import DEFAULT_KERNEL, FieldEmulator, model_transform
 from torchshm.inference.adaptive.final import (EXTRAPOLATION_SHARE, beyond_rows, edge_rows,
                                                 extrapolation_run, finish)
@@ -206,7 +206,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             pick = rng.choice(samples.shape[0], min(600, samples.shape[0]), False)
             draws = samples[pick]
             if n_modes == 1:  # the draws' spread is one mode's: the scale of its flank
-                scan = negligible_mass(beyond_posterior(scan, draws, columns[0]), log_joint, draws, columns[0])
+                scan = beyond_posterior(scan, draws, columns[0])
             tv = (sampling.total_variation(log_joint(draws), previous(draws))
                   if previous is not None else 1.0)
             mmtv = sampling.marginal_tv(samples, prev_samples) if prev_samples is not None else 1.0
