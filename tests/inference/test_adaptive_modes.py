@@ -53,3 +53,31 @@ def test_single_mode_leaves_walkers_alone() -> None:
     walkers = CENTRES[0] + SD * rng.standard_normal((32, 2))
     out = modes.spread_walkers(walkers, CENTRES[:1], np.zeros(1), 15.0, np.ones(2), rng)
     assert out is walkers
+
+
+def test_a_narrow_mode_of_the_round_before_is_found_again() -> None:
+    """A mode 0.02 wide (the analytic density's second one, narrowed) that none of the search's
+    own starts reaches is kept when the round before's modes start the search again, as the
+    adaptive method passes them (``extra``); without them the search sees one mode."""
+    def narrow(theta: np.ndarray) -> np.ndarray:
+        theta = np.atleast_2d(theta)
+        wide = -0.5 * np.square(theta - CENTRES[0]).sum(-1) / SD**2
+        sharp = -0.5 * np.square(theta - CENTRES[1]).sum(-1) / 0.02**2 + np.log(0.3 / 0.7) \
+            - 2 * np.log(0.02 / SD)
+        return np.where((np.abs(theta) <= 6.0).all(axis=1), np.logaddexp(wide, sharp), -np.inf)
+
+    rng = np.random.default_rng(4)
+    walkers = CENTRES[0] + SD * rng.standard_normal((64, 2))
+    runs = walkers[:5].copy()  # the best runs lie in the first mode too
+    columns = ([0, 1], [0, 1])
+    before = CENTRES[1:] + 0.01  # last round's second mode, off by half its width
+    _, n_alone, found_alone = modes.spread(narrow, walkers, runs, columns, HARD, PLAUSIBLE,
+                                           np.random.default_rng(5), np.zeros((0, 2)))
+    spread, n_both, found = modes.spread(narrow, walkers, runs, columns, HARD, PLAUSIBLE,
+                                         np.random.default_rng(5), before)
+    assert n_alone == 1 and found_alone.shape[0] == 1
+    assert n_both == 2
+    np.testing.assert_allclose(found[np.argmax(found[:, 0])], CENTRES[1], atol=1e-3)
+    # both hold walkers (the new mode's share borrows the first mode's spread, so it is not
+    # its mass: the chain's gamma = 1 jumps set the shares, test above)
+    assert 0 < int((spread[:, 0] > 0).sum()) < spread.shape[0]

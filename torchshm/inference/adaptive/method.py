@@ -166,7 +166,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     emulator: FieldEmulator | None = None
     prev_samples: np.ndarray | None = None
     calm, converged, checked, inflation, far_calibration = 0, False, False, 1.0, 1.0
-    far = np.zeros((0, dim))
+    far = modes = np.zeros((0, dim))  # modes: the last round's, which start its search again
     columns = ([names.index(n) for n in problem.physical_names if n in names],
                [i for i, n in enumerate(problem.physical_names) if n in names])
     n_modes = 1
@@ -199,7 +199,7 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
             scan = explore(log_joint, walkers[int(np.argmax(log_joint(walkers)))], columns[0],
                            plausible, rng, far_calibration)
             walkers, n_modes, modes = mode_search.spread(log_joint, walkers, runs.theta_p, columns,
-                                                         hard, plausible, rng, scan.top)
+                                                         hard, plausible, rng, np.concatenate([scan.top, modes]))
             scan = with_modes(scan, log_joint, modes, far_calibration, sd_tol)
             samples, walkers = sampling.run_chain(log_joint, walkers, steps, seed + 1000 * r,
                                                   hop=n_modes > 1)
