@@ -5,7 +5,9 @@ worse in an early round is moved onto the others (:func:`.sampling.regroup`), an
 walker ever reached stays unseen while the stop rule, which compares the chains of successive
 rounds, is satisfied. So before each round's chain the emulated log joint is maximised from
 several starts: the best model runs so far (their θp with the best walker's other parameters),
-the best walker and a few points spread over the plausible box. The optima are merged into
+the best walker, a few points spread over the plausible box and the caller's (the adaptive
+method passes the exploration's best Sobol points and the modes of the round before, so that a
+narrow mode the walkers have left is found again while the emulator shows it). The optima are merged into
 distinct modes (a valley of more than :data:`VALLEY` nats on the segment between two of them)
 and the walkers are spread over the modes within :func:`.sampling.straggler_gap` of the best,
 in proportion to each mode's mass (a Laplace estimate: density at the mode times the volume
