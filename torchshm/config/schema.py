@@ -148,7 +148,7 @@ class EmulatorConfig(MethodConfig):
     sd_tol: float = 0.3  # ... the emulator's log-likelihood sd is below this [nats]
     check_tol: float = 1.0  # ... and the last batch was within this of the emulator [nats]
     n_evidence: int = 8000  # importance samples of the log evidence and the posterior draws
-    emulator_kernel: str = "matern52_additive"  # GP kernel of the field emulator: matern52_additive, matern52, rbf_additive or rbf
+    emulator_kernel: str = "matern52_additive_warped"  # GP kernel of the field emulator: any of torchshm.surrogate.gp.SURROGATE_KERNELS
     error_draws: Optional[int] = None  # unconverged: emulator draws averaged over; None = 8-32 by time
 
 

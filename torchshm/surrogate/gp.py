@@ -35,12 +35,15 @@ from scipy.optimize import minimize
 from threadpoolctl import threadpool_limits
 from torch import Tensor
 
+from torchshm.surrogate.warp import WarpedKernel
+
 #: names of the kernels the surrogate offers: an ARD kernel of all inputs, or (``*_additive``)
 #: that kernel plus one kernel of each input alone, ``k(x, x') = s0 k0(x, x') + Σ_i s_i k_i(x_i, x_i')``
 #: (Duvenaud, Nickisch and Rasmussen 2011, "Additive Gaussian processes", first and last orders):
 #: a response that is close to a sum of the inputs' effects (e.g. two cracks far apart) is
 #: predicted where no run has that combination of inputs
-SURROGATE_KERNELS = ("rbf", "matern52", "rbf_additive", "matern52_additive")
+SURROGATE_KERNELS = ("rbf", "matern52", "rbf_additive", "matern52_additive",
+                     "rbf_warped", "matern52_warped", "rbf_additive_warped", "matern52_additive_warped")
 
 
 def widest_gap(values: Tensor) -> float:
@@ -90,14 +93,15 @@ class SharedKernelGP(gpytorch.models.ExactGP):
                     else gpytorch.kernels.MaternKernel(nu=2.5, **kwargs))
 
         self.mean_module = gpytorch.means.ZeroMean()
-        self.covar_module = gpytorch.kernels.ScaleKernel(base(ard_num_dims=d))
+        covar: gpytorch.kernels.Kernel = gpytorch.kernels.ScaleKernel(base(ard_num_dims=d))
         self.floors: list[float] = [0.0]
-        if kernel.endswith("_additive"):
+        if kernel.removesuffix("_warped").endswith("_additive"):
             for i in range(d):
                 floor = widest_gap(inputs[..., i])
                 self.floors.append(floor)
                 term = base(active_dims=(i,), lengthscale_constraint=gpytorch.constraints.GreaterThan(floor))
-                self.covar_module = self.covar_module + gpytorch.kernels.ScaleKernel(term)
+                covar = covar + gpytorch.kernels.ScaleKernel(term)
+        self.covar_module = WarpedKernel(covar, d) if kernel.endswith("_warped") else covar
         self.kernel, self.min_noise = kernel, min_noise
         self._factor: Tensor | None = None
         self._weights: Tensor | None = None
@@ -111,7 +115,10 @@ class SharedKernelGP(gpytorch.models.ExactGP):
         """Exact log marginal likelihood per output and training point, `m` (GPyTorch MLL)."""
         mll = gpytorch.mlls.ExactMarginalLogLikelihood(self.likelihood, self)
         with gpytorch.settings.fast_computations(log_prob=False):
-            return mll(self(*self.train_inputs), self.train_targets)
+            value = mll(self(*self.train_inputs), self.train_targets)
+        if isinstance(self.covar_module, WarpedKernel):  # its prior, weighed as one output's
+            value = value + self.covar_module.warp.log_prior() / self.train_targets.shape[-1]
+        return value
 
     def fit(self, lengthscales: tuple[float, ...] = (0.2, 0.5, 1.0), max_iter: int = 200,
             warm: dict[str, Tensor] | None = None) -> float:
@@ -151,9 +158,10 @@ class SharedKernelGP(gpytorch.models.ExactGP):
     def scale_kernels(self) -> list[gpytorch.kernels.ScaleKernel]:
         """The kernel's terms: the ARD kernel of all inputs first, then (additive kernels)
         one per input."""
-        if isinstance(self.covar_module, gpytorch.kernels.ScaleKernel):
-            return [self.covar_module]
-        return list(self.covar_module.kernels)
+        covar = self.covar_module.base if isinstance(self.covar_module, WarpedKernel) else self.covar_module
+        if isinstance(covar, gpytorch.kernels.ScaleKernel):
+            return [covar]
+        return list(covar.kernels)
 
     def _initialise(self, lengthscale: float) -> None:
         terms = self.scale_kernels()
@@ -163,6 +171,8 @@ class SharedKernelGP(gpytorch.models.ExactGP):
             # the joint term holds most of the prior variance at the start, each input's a share
             term.outputscale = 1.0 if len(terms) == 1 else (0.5 if i == 0 else 0.5 / (len(terms) - 1))
         self.likelihood.noise = max(1e-6, 10 * self.min_noise)
+        if isinstance(self.covar_module, WarpedKernel):
+            self.covar_module.warp.reset()
 
     def _optimise(self, max_iter: int) -> float:
         """L-BFGS-B (SciPy) on the raw hyperparameters from their current values, at most

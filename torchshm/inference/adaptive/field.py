@@ -27,7 +27,7 @@ from torchshm.surrogate import ResponseTransform, Surrogate
 from torchshm.surrogate.field import fit_field
 
 #: the emulator's kernel by default (``emulator_kernel`` of the method; ``docs/surrogate.md``)
-DEFAULT_KERNEL = "matern52_additive"
+DEFAULT_KERNEL = "matern52_additive_warped"
 #: transform keywords for a model that declares no structure
 PLAIN_TRANSFORM: dict[str, Any] = {"log_inputs": (), "modulus": None, "relative_to_modulus": ()}
 

@@ -106,9 +106,9 @@ def run_emulator(
             beyond the runs' range (:data:`.final.EXTRAPOLATION_SHARE`).
         n_evidence: importance samples of the log evidence and the returned posterior draws.
         emulator_kernel: GP kernel of the field emulator (:data:`~torchshm.surrogate.gp.SURROGATE_KERNELS`):
-            "matern52_additive" (Matérn 5/2 ARD plus one Matérn 5/2 kernel per parameter; 26 %
-            fewer runs than "matern52" over 36 cases, as accurate: docs/benchmarks.md), "matern52",
-            "rbf" or "rbf_additive".
+            "matern52_additive_warped" (Matérn 5/2 ARD plus one per parameter, of inputs through
+            a learned monotone warp: fewer runs over 36 cases, as accurate, docs/benchmarks.md),
+            "matern52_additive", "matern52", "rbf", ... (their ``_additive``/``_warped`` forms).
         error_draws: joint draws of the emulator a capped run's posterior is averaged over
             (:mod:`.unsure`; None: 8 to 32, as ~30 CPU s allow, so machine-dependent; a number
             gives the same draws for a seed anywhere, a small one a cheap, rough average).
