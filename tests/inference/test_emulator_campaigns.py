@@ -82,10 +82,13 @@ def problem_of(kind: str, **kwargs: object) -> Problem:
 
 
 def exact_emulator(problem: Problem) -> FieldEmulator:
+    """An emulator of the linear stand-in model from six runs, exact to 0.05 nats. The kernel
+    is the unwarped one: the warp's concentrations, fitted to six runs, bend a linear response
+    (1.7 nats off at a log joint of -3,595 with the default ``matern52_additive_warped``)."""
     theta = np.array([[1.0, -1.0], [-1.0, 1.0], [1.0, 1.0], [-1.0, -1.0], [0.0, 0.0], [2.0, 0.5]])
     outputs = measured(problem, np.asarray(problem.model_outputs(theta)))
     return FieldEmulator.fit(theta, outputs, torch.arange(problem.y.shape[1], dtype=torch.float64),
-                             torch.as_tensor(problem.measurements.loads))
+                             torch.as_tensor(problem.measurements.loads), kernel="matern52_additive")
 
 
 @pytest.mark.parametrize("kind", ["line", "lines", "per_line", "interpolate", "grid"])
