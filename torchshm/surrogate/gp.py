@@ -41,7 +41,8 @@ from torchshm.surrogate.warp import WarpedKernel
 #: that kernel plus one kernel of each input alone, ``k(x, x') = s0 k0(x, x') + Σ_i s_i k_i(x_i, x_i')``
 #: (Duvenaud, Nickisch and Rasmussen 2011, "Additive Gaussian processes", first and last orders):
 #: a response that is close to a sum of the inputs' effects (e.g. two cracks far apart) is
-#: predicted where no run has that combination of inputs
+#: predicted where no run has that combination of inputs; ``*_warped``: any of these of inputs
+#: read through a learned monotone warp each (:mod:`torchshm.surrogate.warp`: saturating inputs)
 SURROGATE_KERNELS = ("rbf", "matern52", "rbf_additive", "matern52_additive",
                      "rbf_warped", "matern52_warped", "rbf_additive_warped", "matern52_additive_warped")
 
@@ -75,7 +76,8 @@ class SharedKernelGP(gpytorch.models.ExactGP):
         inputs: `N x d` training inputs (unit box).
         targets: `m x N` training targets, one row per output (standardised).
         kernel: one of :data:`SURROGATE_KERNELS`: "rbf" (squared exponential) or "matern52",
-            with a lengthscale per input, or either plus one kernel per input (``_additive``).
+            with a lengthscale per input, or either plus one kernel per input (``_additive``),
+            each also of warped inputs (``_warped``: :class:`~torchshm.surrogate.warp.WarpedKernel`).
         min_noise: lower bound of the noise variance (targets are deterministic model runs).
     """
 
