@@ -165,11 +165,10 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
     previous: EmulatedLogJoint | None = None
     emulator: FieldEmulator | None = None
     prev_samples: np.ndarray | None = None
-    calm, converged, checked, inflation, far_calibration = 0, False, False, 1.0, 1.0
+    calm, converged, checked, inflation, far_calibration, n_modes = 0, False, False, 1.0, 1.0, 1
     far = modes = np.zeros((0, dim))  # modes: the last round's, which start its search again
     columns = ([names.index(n) for n in problem.physical_names if n in names],
                [i for i, n in enumerate(problem.physical_names) if n in names])
-    n_modes = 1
     x_index, loads = torch.arange(problem.y.shape[1], dtype=torch.float64), torch.as_tensor(np.asarray(problem.measurements.loads, dtype=np.float64))
     if budget > 0:  # the own compute to expect, before the first model run
         cost.announce(problem, cost.estimate(problem, n_walkers, n_steps, final_steps, n_evidence,
@@ -211,9 +210,10 @@ def _run(problem: Problem, seed: int, log_dir: str | Path | None, batch_size: in
                   if previous is not None else 1.0)
             mmtv = sampling.marginal_tv(samples, prev_samples) if prev_samples is not None else 1.0
             share, sd = log_joint.emulator_share(draws)
-            # or the TV the emulator's own uncertainty allows, once a new batch tested it
+            # or the TV the emulator's own uncertainty allows, once a new batch tested it and
+            # the batch before passed its test too (``checked`` is still the last round's)
             witness = (tv_witness(log_joint, draws, np.random.default_rng([seed, 37, r]), scale=check.witness_scale)
-                       if check is not None and tv >= tv_tol else np.nan)
+                       if check is not None and checked and tv >= tv_tol else np.nan)
             calm = calm + 1 if tv < tv_tol or witness < tv_tol else 0
             # a batch of exploration runs alone (below) leaves the last posterior check standing
             checked = (check.passed(check_tol) if check is not None
